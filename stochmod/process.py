@@ -1,0 +1,382 @@
+"""The :class:`Process` base class: what a process family declares, and generic fallbacks.
+
+A family is a frozen attrs subclass with one field per parameter (``None`` while free),
+registered by a plugin's ``stochmod_processes`` hook. The core never names a family: it asks
+the class for everything it needs. Parameters are per sample at the model's sampling
+frequency ``freq`` unless their unit says otherwise (GM's ``beta`` is in 1/s).
+
+Generic fallbacks, used where a family does not override them:
+
+- :meth:`Process.wv` from the autocovariance (exact Haar sum) for stationary families that
+  declare one, else from the PSD (quadrature of ``|H_j(f)|^2 S(f)``, any Daubechies filter);
+- :meth:`Process.wv_jacobian` by central differences;
+- :meth:`Process.block` by exact Van Loan re-discretisation of :meth:`continuous_block`,
+  or by composing integer numbers of native steps of :meth:`discrete_block`;
+- :meth:`Process.simulate` from the state-space block (families override with direct forms).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import attrs
+import numpy as np
+from numpy.typing import ArrayLike
+
+from stochmod._validation import check_freq, check_positive_int
+from stochmod.errors import DomainError, InputError, SpecError
+from stochmod.params import Parameter, get_domain
+from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
+from stochmod.theory import wv_from_autocovariance, wv_from_psd
+
+__all__ = ["Process", "PhysicalValue", "as_generator"]
+
+
+def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
+    """Return a numpy Generator from a Generator or an integer seed (None is refused:
+    results must reproduce, so randomness is always explicit)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        return np.random.default_rng(int(rng))
+    raise InputError(f"rng must be a numpy Generator or an integer seed, got {rng!r}")
+
+
+@attrs.frozen
+class PhysicalValue:
+    """A parameter in physical terms (e.g. GM correlation time), for reports."""
+
+    value: float
+    unit: str
+    description: str = ""
+
+
+@attrs.frozen
+class Process:
+    """Base class of process families.
+
+    Subclasses set the class variables below, declare one attrs field per parameter
+    (default ``None``: free) and implement at least :meth:`psd`, :meth:`discrete_block`
+    or :meth:`continuous_block`, :meth:`start` and :meth:`physical`; stationary families
+    also :meth:`autocovariance`. Everything else has a generic fallback.
+
+    Class variables
+    ---------------
+    family : str
+        Unique name in the registry and in specs (``"GM"``).
+    description : str
+        One line for listings.
+    parameter_specs : tuple of Parameter
+        The parameters, in order (families whose parameter sizes depend on the instance,
+        like AR(p), override :meth:`parameters`).
+    structural_fields : tuple of str
+        Constructor arguments that fix the structure rather than a value (AR's ``order``);
+        they appear in specs (``"AR(2)"`` or ``{"family": "AR", "order": 2}``).
+    stationary : bool
+        Whether the process has a stationary autocovariance.
+    """
+
+    family: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = ()
+    structural_fields: ClassVar[tuple[str, ...]] = ()
+    stationary: ClassVar[bool] = True
+
+    def __attrs_post_init__(self) -> None:
+        for spec in self.parameters():
+            value = getattr(self, spec.name)
+            if value is not None:
+                checked = spec.check(value, self.family)
+                if spec.size > 1 or isinstance(value, (list, tuple, np.ndarray)) and np.ndim(value):
+                    checked = tuple(float(c) for c in np.atleast_1d(checked))
+                object.__setattr__(self, spec.name, checked)
+
+    # ------------------------------------------------------------------ algebra
+    def __add__(self, other: object) -> Any:
+        from stochmod.model import Model
+
+        if isinstance(other, (Process, Model)):
+            return Model((self,)) + other
+        return NotImplemented
+
+    def __mul__(self, count: object) -> Any:
+        from stochmod.model import Model
+
+        return Model((self,)).__mul__(count)
+
+    __rmul__ = __mul__
+
+    # ------------------------------------------------------------------ parameters
+    def parameters(self) -> tuple[Parameter, ...]:
+        """The parameter declarations of this instance, in order."""
+        return self.parameter_specs
+
+    def values(self) -> dict[str, Any]:
+        """Parameter values by name (``None`` for free ones; vectors as float arrays)."""
+        out = {}
+        for spec in self.parameters():
+            v = getattr(self, spec.name)
+            out[spec.name] = None if v is None else (np.asarray(v, float) if spec.size > 1
+                                                     or isinstance(v, tuple) else float(v))
+        return out
+
+    def value(self, name: str) -> Any:
+        """One parameter's value; raises :class:`SpecError` if it is free."""
+        v = self.values()[name]
+        if v is None:
+            raise SpecError(f"{self.family}.{name} is free (no value): fit the model or give it")
+        return v
+
+    @property
+    def free_names(self) -> tuple[str, ...]:
+        """Names of the parameters without a value."""
+        return tuple(n for n, v in self.values().items() if v is None)
+
+    @property
+    def is_free(self) -> bool:
+        """True when at least one parameter has no value."""
+        return bool(self.free_names)
+
+    @property
+    def n_params(self) -> int:
+        """Number of scalar parameters."""
+        return sum(p.size for p in self.parameters())
+
+    def _require_values(self) -> None:
+        if self.is_free:
+            raise SpecError(
+                f"{self.family} has free parameter(s) {list(self.free_names)}: "
+                "give values or fit the model first"
+            )
+
+    def with_values(self, **values: Any) -> Process:
+        """Return a copy with the given parameters set (validated against their domains)."""
+        names = {p.name for p in self.parameters()}
+        unknown = set(values) - names
+        if unknown:
+            raise SpecError(f"{self.family} has no parameter(s) {sorted(unknown)}; it has {sorted(names)}")
+        return attrs.evolve(self, **values)
+
+    def freed(self) -> Process:
+        """Return a copy with every parameter free (structure kept)."""
+        return attrs.evolve(self, **{p.name: None for p in self.parameters()})
+
+    def vector(self) -> np.ndarray:
+        """All parameters as one float vector in declaration order (no parameter may be free)."""
+        self._require_values()
+        return np.concatenate([np.atleast_1d(np.asarray(getattr(self, p.name), float))
+                               for p in self.parameters()])
+
+    def from_vector(self, vector: ArrayLike) -> Process:
+        """Inverse of :meth:`vector`: a copy whose parameters take the values in `vector`."""
+        vec = np.asarray(vector, dtype=np.float64).reshape(-1)
+        if vec.size != self.n_params:
+            raise SpecError(f"{self.family} takes {self.n_params} value(s), got {vec.size}")
+        values, i = {}, 0
+        for p in self.parameters():
+            chunk = vec[i : i + p.size]
+            values[p.name] = float(chunk[0]) if p.size == 1 else chunk.copy()
+            i += p.size
+        return attrs.evolve(self, **values)
+
+    def to_unconstrained(self) -> np.ndarray:
+        """Parameters mapped to the unconstrained space of their domains."""
+        self._require_values()
+        return np.concatenate([
+            np.atleast_1d(get_domain(p.domain).to_unconstrained(np.asarray(getattr(self, p.name), float)))
+            for p in self.parameters()
+        ])
+
+    def from_unconstrained(self, theta: ArrayLike) -> Process:
+        """A copy whose parameters are the image of `theta` under the domains' inverse maps."""
+        theta = np.asarray(theta, dtype=np.float64).reshape(-1)
+        out, i = [], 0
+        for p in self.parameters():
+            out.append(np.atleast_1d(get_domain(p.domain).from_unconstrained(theta[i : i + p.size])))
+            i += p.size
+        return self.from_vector(np.concatenate(out) if out else np.zeros(0))
+
+    def transform_jacobian(self, theta: ArrayLike) -> np.ndarray:
+        """Block-diagonal Jacobian ``d vector / d theta`` of :meth:`from_unconstrained`."""
+        theta = np.asarray(theta, dtype=np.float64).reshape(-1)
+        J = np.zeros((theta.size, theta.size))
+        i = 0
+        for p in self.parameters():
+            J[i : i + p.size, i : i + p.size] = get_domain(p.domain).jacobian(theta[i : i + p.size])
+            i += p.size
+        return J
+
+    def structure(self) -> dict[str, Any]:
+        """Structural constructor arguments (see :attr:`structural_fields`)."""
+        return {name: getattr(self, name) for name in self.structural_fields}
+
+    def to_spec(self) -> dict[str, Any]:
+        """JSON-safe spec: ``{"family": ..., "params": {...given values...}, **structure}``."""
+        params = {}
+        for name, v in self.values().items():
+            if v is not None:
+                params[name] = v.tolist() if isinstance(v, np.ndarray) else float(v)
+        return {"family": self.family, "params": params, **self.structure()}
+
+    # ------------------------------------------------------------------ theory
+    def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
+        """Theoretical wavelet variance at levels 1..`levels`, signal unit^2.
+
+        Generic fallback: exact Haar sum over :meth:`autocovariance` for stationary families
+        that declare one, else quadrature of the PSD (:func:`stochmod.theory.wv_from_psd`).
+        """
+        self._require_values()
+        levels = check_positive_int(levels, name="levels")
+        freq = check_freq(freq)
+        if wavelet == "haar" and self.stationary and _overrides(type(self), "autocovariance"):
+            return wv_from_autocovariance(lambda lags: self.autocovariance(lags, freq), levels)
+        return wv_from_psd(lambda f: self.psd(f, freq), levels, freq, wavelet=wavelet,
+                           breakpoints=self.psd_breakpoints(freq))
+
+    def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
+        """Jacobian of :meth:`wv` with respect to :meth:`vector`, shape (levels, n_params).
+
+        Generic fallback: central differences with relative steps (families with a closed
+        form override this).
+        """
+        vec = self.vector()
+        cols = []
+        for i in range(vec.size):
+            h = 1e-6 * max(abs(vec[i]), 1e-300)
+            hi, lo = vec.copy(), vec.copy()
+            hi[i] += h
+            lo[i] -= h
+            try:
+                up, down = self.from_vector(hi), self.from_vector(lo)
+                cols.append((up.wv(levels, freq) - down.wv(levels, freq)) / (2 * h))
+            except DomainError:  # at a domain edge: one-sided difference
+                up = self.from_vector(hi)
+                cols.append((up.wv(levels, freq) - self.wv(levels, freq)) / h)
+        return np.column_stack(cols) if cols else np.zeros((levels, 0))
+
+    def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
+        """Two-sided PSD of the sampled process, signal unit^2/Hz, at `f` Hz in (-freq/2, freq/2]."""
+        raise NotImplementedError(f"{self.family} does not declare a PSD")
+
+    def psd_breakpoints(self, freq: float) -> tuple[float, ...]:
+        """Frequencies (Hz) where the PSD has a kink or jump (quadrature splits there)."""
+        return ()
+
+    def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
+        """Autocovariance at integer `lags` (samples), signal unit^2; stationary families only."""
+        raise InputError(f"{self.family} is not stationary: it has no autocovariance")
+
+    # ------------------------------------------------------------------ state space
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Names of the states this family adds to a filter (empty for feed-through only)."""
+        return ()
+
+    def continuous_block(self, freq: float) -> ContinuousBlock | None:
+        """Continuous-time form, or None where the family is discrete only (AR(p))."""
+        return None
+
+    def discrete_block(self, freq: float) -> StateSpaceBlock:
+        """State-space block at the native step ``1/freq``."""
+        cont = self.continuous_block(freq)
+        if cont is None:
+            raise NotImplementedError(f"{self.family} declares neither a discrete nor a continuous block")
+        return self._block_from_continuous(cont, 1.0 / freq, freq)
+
+    def initial_covariance(self, freq: float) -> np.ndarray:
+        """Covariance of the states at the start (stationary where it exists)."""
+        return np.zeros((len(self.state_names),) * 2)
+
+    def white_variance(self, freq: float) -> float:
+        """White feed-through variance per sample at `freq` (signal unit^2)."""
+        return 0.0
+
+    def output_row(self, freq: float) -> np.ndarray:
+        """Output row H: how the states add to the sensor reading (default: first state)."""
+        k = len(self.state_names)
+        return np.eye(k)[0] if k else np.zeros(0)
+
+    def _block_from_continuous(self, cont: ContinuousBlock, dt: float, freq: float) -> StateSpaceBlock:
+        Phi, Q = van_loan(cont, dt) if cont.F.size else (np.zeros((0, 0)), np.zeros((0, 0)))
+        names = self.state_names
+        return StateSpaceBlock(names, Phi, Q, self.output_row(freq), self.initial_covariance(freq),
+                               self.white_variance(freq), dt, cont)
+
+    def block(self, dt: float, freq: float) -> StateSpaceBlock:
+        """State-space block at filter step `dt` seconds, exact.
+
+        With a continuous form: exact Van Loan discretisation at any `dt`. Discrete-only
+        families: `dt` must be a whole number of sample periods, and the block composes that
+        many native steps exactly.
+        """
+        self._require_values()
+        freq = check_freq(freq)
+        dt = float(dt)
+        if not (np.isfinite(dt) and dt > 0):
+            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+        if not self.state_names:  # feed-through only (WN, QN): no dynamics, any dt
+            return StateSpaceBlock((), np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0),
+                                   np.zeros((0, 0)), self.white_variance(freq), dt, None)
+        cont = self.continuous_block(freq)
+        if cont is not None:
+            return self._block_from_continuous(cont, dt, freq)
+        native = self.discrete_block(freq)
+        steps = dt * freq
+        k = round(steps)
+        if k < 1 or not math.isclose(steps, k, rel_tol=1e-9):
+            raise InputError(
+                f"{self.family} is discrete-time: dt = {dt} s must be a whole multiple of the sample "
+                f"period 1/{freq} s"
+            )
+        Phi, Q = compose_steps(native.Phi, native.Q, k) if native.n_states else (native.Phi, native.Q)
+        return attrs.evolve(native, Phi=Phi, Q=Q, dt=dt)
+
+    # ------------------------------------------------------------------ simulation
+    def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
+        """Simulate `n` samples at `freq` Hz from a seeded generator (generic: via the state space)."""
+        self._require_values()
+        return simulate_block(self.discrete_block(check_freq(freq)),
+                              check_positive_int(n, name="n"), as_generator(rng))
+
+    # ------------------------------------------------------------------ estimation support
+    def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,
+              rng: np.random.Generator | None = None) -> Process:
+        """Starting values for the free parameters from an empirical Haar WV (levels 1..J).
+
+        `index` of `count` tells which of several processes of this family is meant (the
+        composer asks GM 1 of 2, GM 2 of 2 ...), so starts spread over time scales; `rng`,
+        when given, perturbs the guess for multi-start searches.
+        """
+        raise NotImplementedError(f"{self.family} provides no starting values")
+
+    def physical(self, freq: float) -> dict[str, PhysicalValue]:
+        """The parameters in physical terms (correlation time, noise density ...)."""
+        return {}
+
+
+def _overrides(cls: type, name: str) -> bool:
+    return getattr(cls, name) is not getattr(Process, name)
+
+
+def simulate_block(block: StateSpaceBlock, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Simulate ``y_t = H x_t + v_t`` with ``x_{t+1} = Phi x_t + w_t``, x_0 ~ N(0, P0),
+    ``v_t ~ N(0, white_var)``; the reading at t uses the state at t."""
+    k = block.n_states
+    y = np.zeros(n)
+    if k:
+        L0 = _psd_sqrt(block.P0)
+        Lq = _psd_sqrt(block.Q)
+        x = L0 @ rng.standard_normal(k)
+        w = rng.standard_normal((n, k)) @ Lq.T
+        for t in range(n):
+            y[t] = block.H @ x
+            x = block.Phi @ x + w[t]
+    if block.white_var > 0:
+        y += math.sqrt(block.white_var) * rng.standard_normal(n)
+    return y
+
+
+def _psd_sqrt(S: np.ndarray) -> np.ndarray:
+    w, V = np.linalg.eigh(0.5 * (S + S.T))
+    return V * np.sqrt(np.clip(w, 0, None))
