@@ -354,6 +354,12 @@ class Process:
         """The parameters in physical terms (correlation time, noise density ...)."""
         return {}
 
+    @classmethod
+    def example(cls, freq: float) -> Process:
+        """A typical instance at `freq` Hz (for documentation and the conformance kit):
+        its time scales must be resolvable by simulations of ~2^16 samples."""
+        raise NotImplementedError(f"{cls.family} provides no example instance")
+
 
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)

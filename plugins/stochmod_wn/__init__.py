@@ -79,6 +79,11 @@ class WN(Process):
             guess *= float(np.exp(rng.normal(0.0, 1.0)))
         return self.with_values(sigma2=guess)
 
+    @classmethod
+    def example(cls, freq: float) -> WN:
+        """Unit variance per sample."""
+        return cls(sigma2=1.0)
+
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """Noise density N = sqrt(sigma2/freq) in u*sqrt(s)."""
         return {"N": PhysicalValue(float(np.sqrt(self.sigma2 / freq)), "u*sqrt(s)",
