@@ -1,0 +1,1 @@
+"""Estimation: the GMWM estimator, its inference, and model selection."""
