@@ -10,14 +10,12 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import pywt
 
-from stochmod.errors import InputError
+from stochmod.signal.modwt import filter_width, squared_gain
 
 __all__ = [
     "haar_kernel",
     "wv_from_autocovariance",
-    "squared_gain",
     "wv_from_psd",
 ]
 
@@ -55,44 +53,6 @@ def wv_from_autocovariance(acvf: Callable[[np.ndarray], np.ndarray], levels: int
         g = np.asarray(acvf(np.arange(2 * m)), dtype=np.float64)
         out[j - 1] = a[0] * g[0] + 2.0 * np.dot(a[1:], g[1:])
     return out
-
-
-def squared_gain(f: np.ndarray, level: int, wavelet: str = "haar") -> np.ndarray:
-    """Squared gain ``|H_j(f)|^2`` of the level-`level` MODWT wavelet filter, f in cycles/sample.
-
-    Haar in closed form, ``sin^4(pi f m) / (m^2 sin^2(pi f))`` (limit 0 at f = 0); other
-    orthogonal pywt wavelets by the product formula (eq. 5 of Stebler et al., 2014).
-    """
-    f = np.asarray(f, dtype=np.float64)
-    m = 2 ** (level - 1)
-    if wavelet == "haar":
-        s = np.sin(np.pi * f)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            g = np.sin(np.pi * f * m) ** 4 / (m * m * s * s)
-        return np.where(s == 0, 0.0, g)
-    try:
-        w = pywt.Wavelet(wavelet)
-    except ValueError as exc:
-        raise InputError(f"unknown wavelet {wavelet!r}: {exc}") from None
-    if not w.orthogonal:
-        raise InputError(f"wavelet {wavelet!r} is not orthogonal; the MODWT needs an orthogonal filter")
-    hi = np.asarray(w.dec_hi) / np.sqrt(2.0)
-    lo = np.asarray(w.dec_lo) / np.sqrt(2.0)
-
-    def gain(h: np.ndarray, x: np.ndarray) -> np.ndarray:
-        # |sum_l h_l e^{-i 2 pi x l}|^2 = r_0 + 2 sum_{k>0} r_k cos(2 pi x k), r = autocorrelation of h
-        r = np.correlate(h, h, mode="full")[h.size - 1 :]
-        k = np.arange(1, h.size)
-        return r[0] + 2.0 * np.cos(2 * np.pi * np.multiply.outer(x, k)) @ r[1:]
-
-    g = gain(hi, (2 ** (level - 1) * f).ravel())
-    for l in range(level - 1):
-        g = g * gain(lo, (2**l * f).ravel())
-    return g.reshape(f.shape)
-
-
-def _filter_width(wavelet: str) -> int:
-    return 2 if wavelet == "haar" else pywt.Wavelet(wavelet).dec_len
 
 
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
@@ -133,7 +93,7 @@ def wv_from_psd(
     for j in range(1, levels + 1):
         m = 2 ** (j - 1)
         # panels no wider than one lobe of the gain: 1/m for Haar, 1/(m L1/2) for longer filters
-        per = m * max(1, _filter_width(wavelet) // 2)
+        per = m * max(1, filter_width(1, wavelet) // 2)
         edges = np.arange(0, per // 2 + 1) / per if per > 1 else np.array([0.0])
         near_zero = (1.0 / (2 * m)) * 2.0 ** -np.arange(0, 60)
         edges = np.unique(np.concatenate([edges, near_zero, extra, [0.5]]))
