@@ -1,0 +1,400 @@
+"""Maximal overlap discrete wavelet transform (MODWT): filters, gains and interior coefficients.
+
+Conventions (Percival & Walden 2000, ch. 5; Stebler et al. 2014, eqs. 3-6 and 18):
+
+- The level-1 MODWT filters are PyWavelets' orthogonal filters in *convolution* order,
+  rescaled by ``1/sqrt(2)``: ``h_1 = dec_hi[::-1] / sqrt(2)`` (wavelet) and
+  ``g_1 = dec_lo[::-1] / sqrt(2)`` (scaling), so that ``sum h_1 = 0``, ``sum h_1^2 = 1/2``.
+  For Haar, ``h_1 = (+1/2, -1/2)``, the sign of eq. 18.
+- The level-j wavelet filter (eq. 5) has width ``L_j = (2^j - 1)(L_1 - 1) + 1``; for Haar
+  ``L_j = 2^j`` and ``h_{j,l} = +1/2^j`` for ``l < 2^(j-1)``, ``-1/2^j`` after.
+- Coefficients are ``W_{j,t} = sum_l h_{j,l} x_{t-l}``; only the *interior* ones, which need
+  no boundary rule, are returned: ``t = L_j - 1, ..., N - 1`` (0-based), ``M_j = N - L_j + 1``
+  of them (eq. 9).
+
+The transform is computed with the MODWT pyramid algorithm restricted to the interior
+(``L_1`` multiply-adds per sample and level, processed in cache-sized chunks, in place on one
+work array), never with ``pywt.swt`` (whose cost explodes at deep levels and which needs a
+power-of-two length). For Haar the pyramid is a moving-sum doubling: each level costs one
+addition and one subtraction per sample; unlike differences of one cumulative sum, its
+round-off does not grow with N or with the signal's mean.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterator
+
+import numpy as np
+import pywt
+from numpy.lib.stride_tricks import as_strided
+from numpy.typing import ArrayLike
+
+from stochmod._validation import as_signal, check_positive_int
+from stochmod.errors import InputError
+
+__all__ = [
+    "modwt_filters",
+    "modwt_filter",
+    "filter_width",
+    "max_level",
+    "default_levels",
+    "squared_gain",
+    "modwt_coefficients",
+    "iter_modwt",
+]
+
+_CHUNK = 1 << 16  # samples per block of the pyramid: the working set stays in cache
+_DOT = 8192  # dot products in pieces below OpenBLAS's threading threshold (n > 10000): threaded
+# BLAS calls on such short vectors stall for milliseconds when the other cores are busy
+
+
+@functools.lru_cache(maxsize=64)
+def _filters(wavelet: str) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(wavelet, str):
+        raise InputError(f"wavelet must be a PyWavelets wavelet name (str), got {wavelet!r}")
+    try:
+        w = pywt.Wavelet(wavelet)
+    except ValueError:
+        raise InputError(
+            f"unknown wavelet {wavelet!r}; use an orthogonal discrete PyWavelets wavelet "
+            "such as 'haar', 'db4', 'sym4' or 'coif2'"
+        ) from None
+    if not w.orthogonal:
+        raise InputError(
+            f"wavelet {wavelet!r} is not orthogonal; the MODWT needs an orthogonal filter"
+        )
+    h = np.asarray(w.dec_hi, dtype=np.float64)[::-1] / math.sqrt(2.0)
+    g = np.asarray(w.dec_lo, dtype=np.float64)[::-1] / math.sqrt(2.0)
+    h.setflags(write=False)
+    g.setflags(write=False)
+    return h, g
+
+
+def modwt_filters(wavelet: str = "haar") -> tuple[np.ndarray, np.ndarray]:
+    """Level-1 MODWT wavelet and scaling filters ``(h_1, g_1)`` in convolution order.
+
+    Parameters
+    ----------
+    wavelet : str
+        Name of an orthogonal discrete PyWavelets wavelet ("haar", "db4", "sym4", ...).
+
+    Returns
+    -------
+    h, g : ndarray, shape (L_1,)
+        ``h = dec_hi[::-1] / sqrt(2)`` and ``g = dec_lo[::-1] / sqrt(2)`` (read-only), so that
+        ``sum(h) = 0``, ``sum(h**2) = 1/2``, ``sum(g) = 1``.
+
+    Raises
+    ------
+    InputError
+        Unknown, continuous or non-orthogonal wavelet.
+    """
+    return _filters(wavelet)
+
+
+def filter_width(level: int, wavelet: str = "haar") -> int:
+    """Width ``L_j = (2^j - 1)(L_1 - 1) + 1`` (samples) of the level-`level` MODWT filter."""
+    level = check_positive_int(level, name="level")
+    width1 = _filters(wavelet)[0].size
+    return (2**level - 1) * (width1 - 1) + 1
+
+
+def max_level(n: int, wavelet: str = "haar") -> int:
+    """Deepest level whose filter fits in `n` samples (``L_j <= n``, so ``M_j >= 1``); 0 if none."""
+    n = check_positive_int(n, name="n")
+    width1 = _filters(wavelet)[0].size
+    # L_j <= n  <=>  2^j <= (n - 1) / (L_1 - 1) + 1
+    return int(math.floor(math.log2((n - 1) // (width1 - 1) + 1)))
+
+
+def default_levels(n: int, wavelet: str = "haar") -> int:
+    """Default number of levels ``J = floor(log2 n) - 1``, capped at :func:`max_level`, at least 1.
+
+    Raises
+    ------
+    InputError
+        If even the level-1 filter does not fit in `n` samples.
+    """
+    top = max_level(n, wavelet)
+    if top < 1:
+        raise InputError(
+            f"x has {n} sample(s); the level-1 {wavelet!r} MODWT filter needs at least "
+            f"{filter_width(1, wavelet)}"
+        )
+    return max(1, min(int(math.floor(math.log2(n))) - 1, top))
+
+
+def _check_level(n: int, level: int, wavelet: str, name: str = "level") -> int:
+    level = check_positive_int(level, name=name)
+    top = max_level(n, wavelet)
+    if level > top:
+        raise InputError(
+            f"{name}={level} is more than the data allow: {n} samples support at most "
+            f"{top} level(s) of the {wavelet!r} MODWT (the level-j filter, "
+            f"(2^j - 1)(L_1 - 1) + 1 samples wide, must fit in the signal)"
+        )
+    return level
+
+
+def modwt_filter(level: int, wavelet: str = "haar") -> np.ndarray:
+    """Equivalent level-`level` MODWT wavelet filter ``h_{j,l}``, ``l = 0..L_j - 1`` (eq. 5).
+
+    Built by the cascade ``h_j = g_1 * g_1^(2) * ... * g_1^(2^(j-2)) * h_1^(2^(j-1))`` where
+    ``^(k)`` inserts ``k - 1`` zeros between taps. ``sum h_j^2 = 1/2^j``.
+
+    Parameters
+    ----------
+    level : int
+        Level j >= 1.
+    wavelet : str
+        Orthogonal PyWavelets wavelet name.
+
+    Returns
+    -------
+    ndarray, shape (L_j,)
+        Dimensionless filter taps in convolution order (``W_t = sum_l h_l x_{t-l}``).
+    """
+    level = check_positive_int(level, name="level")
+    h, g = _filters(wavelet)
+    out = np.ones(1)
+    for k in range(level):
+        base = h if k == level - 1 else g
+        up = np.zeros((base.size - 1) * 2**k + 1)
+        up[:: 2**k] = base
+        out = np.convolve(out, up)
+    return out
+
+
+def _reduce(f: np.ndarray) -> np.ndarray:
+    """``f`` minus its nearest integer (exact in floating point), in [-1/2, 1/2]."""
+    return f - np.round(f)
+
+
+def _cosine_series(taps: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``|sum_l c_l exp(-i 2 pi f l)|^2`` via the taps' autocorrelation (a cosine series)."""
+    r = np.correlate(taps, taps, mode="full")[taps.size - 1 :]
+    k = np.arange(1, taps.size)
+    return r[0] + 2.0 * np.cos(2.0 * np.pi * f[..., None] * k) @ r[1:]
+
+
+def _split_zeros(taps: np.ndarray, sign: float) -> tuple[int, np.ndarray]:
+    """Factor ``C(z) = (1 - sign z^-1)^K Q(z)``: return K and the taps of Q.
+
+    Each division by ``1 - s z^-1`` is ``q_l = s^l cumsum(s^k c_k)_l`` and must leave a
+    vanishing remainder; K stops where it does not, or where the factorisation would no
+    longer reproduce the taps to 1e-12 (deflating a multiple root is ill-conditioned).
+    """
+    k, q = 0, taps
+    scale = np.abs(taps).sum()
+    while q.size > 1:
+        alt = sign ** np.arange(q.size)
+        full = alt * np.cumsum(alt * q)
+        rebuilt = full[:-1]
+        for _ in range(k + 1):
+            rebuilt = np.convolve(rebuilt, [1.0, -sign])
+        if abs(full[-1]) > 1e-8 * scale or np.max(np.abs(rebuilt - taps)) > 1e-12 * scale:
+            break
+        k, q = k + 1, full[:-1]
+    return k, q
+
+
+@functools.lru_cache(maxsize=64)
+def _gain_model(wavelet: str) -> tuple[tuple[int, np.ndarray], tuple[int, np.ndarray], bool]:
+    """Per half-band filter ``(K, taps of Q)``, and whether the db/sym closed form applies."""
+    h, g = _filters(wavelet)
+    if pywt.Wavelet(wavelet).short_family_name in ("db", "sym"):
+        half = h.size // 2
+        coef = np.array([math.comb(half - 1 + l, l) for l in range(half)], dtype=np.float64)
+        return (half, coef), (half, coef), True
+    return _split_zeros(h, 1.0), _split_zeros(g, -1.0), False
+
+
+def _half_gain(wavelet: str, phi: np.ndarray, lowpass: bool) -> np.ndarray:
+    """``|G_1(phi)|^2`` (lowpass) or ``|H_1(phi)|^2``, phi in [-1/2, 1/2], accurate at zeros.
+
+    ``sin(pi phi)`` and ``cos(pi phi) = sin(pi (1/2 - |phi|))`` are taken with exact arguments.
+    Daubechies and symlets (same squared gains) in closed form (Percival & Walden 2000,
+    eq. 105b): ``|G_1|^2 = cos^L sum_{l<L/2} C(L/2-1+l, l) sin^(2l)``, H with sin and cos
+    swapped; other wavelets as ``(2 sin)^(2K) |Q|^2`` (resp. cos), K zeros split off the taps.
+    """
+    s2 = np.sin(np.pi * phi) ** 2
+    c2 = np.sin(np.pi * (0.5 - np.abs(phi))) ** 2
+    zero, other = (c2, s2) if lowpass else (s2, c2)
+    hi, lo, closed = _gain_model(wavelet)
+    k, q = lo if lowpass else hi
+    if closed:
+        return zero**k * np.polynomial.polynomial.polyval(other, q)
+    return (4.0 * zero) ** k * np.maximum(_cosine_series(q, phi), 0.0)
+
+
+def squared_gain(f: ArrayLike, level: int, wavelet: str = "haar") -> np.ndarray:
+    """Squared gain ``|H_j(f)|^2`` of the level-j MODWT wavelet filter.
+
+    Parameters
+    ----------
+    f : array_like
+        Frequency in cycles/sample (``f_Hz / freq``); any real value (the gain has period 1).
+    level : int
+        Level j >= 1.
+    wavelet : str
+        Orthogonal PyWavelets wavelet name.
+
+    Returns
+    -------
+    ndarray
+        Dimensionless squared gain (>= 0), same shape as `f`;
+        ``int_{-1/2}^{1/2} |H_j|^2 df = 1/2^j``.
+
+    Notes
+    -----
+    Haar in closed form, ``sin^4(pi m f) / (m^2 sin^2(pi f))`` with ``m = 2^(j-1)`` (0 at
+    integer f, the limit), evaluated as ``sin^2(pi m f) * (sin(pi m f) / (m sin(pi f)))^2``
+    after reducing ``f`` and ``m f`` exactly to [-1/2, 1/2], so that the relative accuracy
+    is a few ulps everywhere, also next to the zeros. Other wavelets by the product
+    formula ``|H_1(2^(j-1) f)|^2 prod_{l<j-1} |G_1(2^l f)|^2`` (eq. 5) with exactly reduced
+    arguments and factors written so as to keep their zeros (Daubechies and symlets in closed
+    form, others as ``(2 sin(pi f))^(2K) |Q(f)|^2``): relative accuracy is kept near f = 0,
+    where a PSD integrand ``|H_j|^2 S`` with S ~ 1/f^2 or steeper would otherwise be swamped
+    by round-off. The theoretical wavelet variance of a process with PSD S (unit^2 per
+    cycle/sample) is ``int_{-1/2}^{1/2} |H_j(f)|^2 S(f) df`` (eq. 8).
+    """
+    level = check_positive_int(level, name="level")
+    try:
+        f = np.asarray(f, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"f must be real frequencies in cycles/sample: {exc}") from None
+    if not np.all(np.isfinite(f)):
+        raise InputError("f contains NaN or inf; frequencies must be finite (cycles/sample)")
+    h, _ = _filters(wavelet)
+    m = 2 ** (level - 1)
+    f0 = _reduce(f)
+    if h.size == 2:  # Haar
+        smf = np.sin(np.pi * _reduce(m * f0))
+        sf = np.sin(np.pi * f0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(sf == 0, 1.0, smf / (m * sf))
+        return smf * smf * ratio * ratio
+    out = _half_gain(wavelet, _reduce(m * f0), lowpass=False)
+    for k in range(level - 1):
+        out = out * _half_gain(wavelet, _reduce(2**k * f0), lowpass=True)
+    return out
+
+
+def _sumsq(w: np.ndarray) -> float:
+    """Sum of squares of a contiguous vector, by single-threaded dot products of _DOT pieces."""
+    whole = w.size - w.size % _DOT
+    rows = w[:whole].reshape(-1, _DOT)
+    rest = w[whole:]
+    return float(np.vecdot(rows, rows).sum()) + float(np.dot(rest, rest))
+
+
+def _pyramid(
+    x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None
+) -> Iterator[tuple[int, float, int]]:
+    """Run the interior MODWT pyramid; yield ``(j, sum of W_j^2, M_j)`` for j = 1..levels.
+
+    When `w_out` (length >= M_1) is given, ``w_out[:M_j]`` holds the level-j coefficients at
+    the time of the yield (overwritten at the next level). Extra memory: one copy of `x`.
+    """
+    h, g = _filters(wavelet)
+    width1 = h.size
+    v = np.array(x, dtype=np.float64, copy=True)  # V_{j-1} interior (Haar: unscaled sums)
+    n_valid = v.size
+    item = v.strides[0]
+    haar = width1 == 2
+    sign = 1.0 if h[0] > 0 else -1.0
+    coef = np.vstack([h[::-1], g[::-1]])  # rows: taps at offsets 0, step, ..., (L1-1) step
+    scratch = np.empty(_CHUNK)
+    for j in range(1, levels + 1):
+        step = 2 ** (j - 1)
+        m = n_valid - step * (width1 - 1)
+        update = j < levels  # the scaling coefficients are not needed after the last level
+        rows = coef if update else coef[:1]
+        total = 0.0
+        for s in range(0, m, _CHUNK):
+            e = min(s + _CHUNK, m)
+            if haar:
+                # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
+                w = np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
+                total += _sumsq(w)
+                if w_out is not None:
+                    np.multiply(w, sign * 0.5**j, out=w_out[s:e])
+                if update:
+                    np.add(v[s:e], v[s + step : e + step], out=v[s:e])
+            else:
+                view = as_strided(v[s:], shape=(width1, e - s), strides=(step * item, item))
+                out = np.einsum("ij,jk->ik", rows, view)  # no BLAS threads (see _DOT)
+                total += _sumsq(out[0])
+                if w_out is not None:
+                    w_out[s:e] = out[0]
+                if update:
+                    v[s:e] = out[1]
+        n_valid = m
+        yield j, (total * 0.25**j if haar else total), m
+
+
+def modwt_coefficients(x: ArrayLike, level: int, wavelet: str = "haar") -> np.ndarray:
+    """Interior MODWT wavelet coefficients of `x` at one level.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Finite signal, any length N >= L_j, in its own unit.
+    level : int
+        Level j, 1 <= j <= :func:`max_level` (N, wavelet).
+    wavelet : str
+        Orthogonal PyWavelets wavelet name (default "haar").
+
+    Returns
+    -------
+    ndarray, shape (M_j,)
+        ``W_{j,t} = sum_l h_{j,l} x_{t-l}`` for ``t = L_j - 1 .. N - 1`` (the coefficients that
+        need no boundary rule), in the unit of `x`; ``M_j = N - L_j + 1``. Equals
+        ``numpy.convolve(x, modwt_filter(level, wavelet), mode="valid")``.
+
+    Raises
+    ------
+    InputError
+        Bad signal (empty, NaN/inf, not 1-D, non-numeric), bad level, unknown wavelet.
+    """
+    x = as_signal(x, name="x", min_length=1)
+    _filters(wavelet)
+    level = _check_level(x.size, level, wavelet)
+    buf = np.empty(x.size)
+    for j, _, m in _pyramid(x, level, wavelet, buf):
+        if j == level:
+            return buf[:m].copy()
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def iter_modwt(
+    x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
+) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(j, W_j)``, the interior MODWT coefficients of every level j = 1..`levels`.
+
+    One pass of the pyramid serves all levels (cost O(N L_1) per level). Each yielded array
+    is new (length ``M_j``), so callers may keep them, e.g. for cross-level covariances.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Finite signal.
+    levels : int, optional
+        Number of levels J (default :func:`default_levels`).
+    wavelet : str
+        Orthogonal PyWavelets wavelet name.
+    """
+    x = as_signal(x, name="x", min_length=1)
+    _filters(wavelet)
+    levels = default_levels(x.size, wavelet) if levels is None else _check_level(
+        x.size, levels, wavelet, name="levels"
+    )
+
+    def gen() -> Iterator[tuple[int, np.ndarray]]:
+        buf = np.empty(x.size)
+        for j, _, m in _pyramid(x, levels, wavelet, buf):
+            yield j, buf[:m].copy()
+
+    return gen()
