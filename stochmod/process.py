@@ -279,6 +279,8 @@ class Process:
 
     def discrete_block(self, freq: float) -> StateSpaceBlock:
         """State-space block at the native step ``1/freq``."""
+        if not self.state_names:
+            return self._feedthrough_block(1.0 / freq, freq)
         cont = self.continuous_block(freq)
         if cont is None:
             raise NotImplementedError(f"{self.family} declares neither a discrete nor a continuous block")
@@ -296,6 +298,10 @@ class Process:
         """Output row H: how the states add to the sensor reading (default: first state)."""
         k = len(self.state_names)
         return np.eye(k)[0] if k else np.zeros(0)
+
+    def _feedthrough_block(self, dt: float, freq: float) -> StateSpaceBlock:
+        empty = np.zeros((0, 0))
+        return StateSpaceBlock((), empty, empty, np.zeros(0), empty, self.white_variance(freq), dt)
 
     def _block_from_continuous(self, cont: ContinuousBlock, dt: float, freq: float) -> StateSpaceBlock:
         Phi, Q = van_loan(cont, dt) if cont.F.size else (np.zeros((0, 0)), np.zeros((0, 0)))
@@ -316,8 +322,7 @@ class Process:
         if not (np.isfinite(dt) and dt > 0):
             raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
         if not self.state_names:  # feed-through only (WN, QN): no dynamics, any dt
-            return StateSpaceBlock((), np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0),
-                                   np.zeros((0, 0)), self.white_variance(freq), dt, None)
+            return self._feedthrough_block(dt, freq)
         cont = self.continuous_block(freq)
         if cont is not None:
             return self._block_from_continuous(cont, dt, freq)
