@@ -1,0 +1,387 @@
+"""Autoregressive process AR(p): the stochmod plugin for the family ``AR(phi, sigma2)``.
+
+``X_t = sum_{i=1}^p phi_i X_{t-i} + e_t``, ``e_t ~ N(0, sigma2)`` i.i.d., at the model's
+sampling frequency ``freq``; discrete time only. The order p is structural: ``"AR(2)"``,
+``{"family": "AR", "order": 2}`` or ``AR(phi=[0.5, 0.2], sigma2=1.0)`` (order inferred).
+
+Everything exact goes through the roots z_l of ``z^p - phi_1 z^(p-1) - ... - phi_p``
+(:mod:`stochmod_ar._roots`): the autocovariance and the Haar WV are residue sums of
+``sigma2 z^(p-1) K(z) / (P(z) P*(z))``, i.e. sums of geometric terms ``c_l z_l^|h|`` whose Haar
+WV comes from :func:`stochmod.geometric.haar_wv_geometric` (stable as |z_l| -> 1, phi near +-1);
+groups of near-repeated roots are summed by a contour integral around the group instead of
+by their individually large residues. Accuracy: relative ~1e-13 typically, ~eps / (1 - |z|)
+for complex roots close to the unit circle away from +-1.
+
+State space: companion form with states ``(x_t, x_{t-1}, ..., x_{t-p+1})``, ``Q = sigma2 e1 e1'``,
+``P0`` the stationary covariance (Toeplitz of the exact autocovariance); the base class
+composes whole numbers of steps for filter steps that are multiples of ``1/freq``.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from fractions import Fraction
+from typing import ClassVar
+
+import attrs
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+import scipy.signal
+from numpy.typing import ArrayLike
+
+from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.errors import DomainError, InputError, SpecError
+from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_parts
+from stochmod.hookspecs import hookimpl
+from stochmod.params import Parameter, get_domain
+from stochmod.process import PhysicalValue, Process, as_generator
+from stochmod.statespace import StateSpaceBlock
+
+from stochmod_ar._roots import ARRoots, ar_roots
+
+__all__ = ["AR", "stochmod_processes"]
+
+_PHI = Parameter("phi", "stationary_ar", "1", "AR coefficients phi_1..phi_p (size = order)")
+_SIGMA2 = Parameter("sigma2", "positive", "u^2", "innovation variance per sample")
+_CHUNK = 1 << 15
+_EPS = 2.0 ** -52
+_PRECISE_ABOVE = 1e-12  # estimated relative rounding error above which residues go double-double
+
+
+def _check_order(order: object) -> int:
+    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, float)) or (
+        isinstance(order, float) and not order.is_integer()
+    ):
+        raise SpecError(f"AR order must be a whole number >= 1, got {order!r}")
+    if order < 1:
+        raise SpecError(f"AR order must be >= 1, got {order!r}")
+    return int(order)
+
+
+def _phi_array(phi: object) -> np.ndarray:
+    try:
+        arr = np.atleast_1d(np.asarray(phi, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise DomainError(f"AR.phi must be a list of numbers, got {phi!r}") from None
+    if arr.ndim != 1:
+        raise DomainError(f"AR.phi must be one-dimensional, got shape {arr.shape}")
+    return arr
+
+
+@attrs.frozen
+class AR(Process):
+    """Autoregressive process of order `order`.
+
+    Parameters
+    ----------
+    order : int, optional
+        p >= 1 (structural). Inferred from `phi` when omitted; 1 when both are omitted.
+    phi : sequence of float, optional
+        Coefficients phi_1..phi_p of a stationary AR(p) (dimensionless); free when None.
+    sigma2 : float, optional
+        Innovation variance per sample, u^2 (> 0); free when None.
+    """
+
+    order: int | None = None
+    phi: tuple[float, ...] | None = None
+    sigma2: float | None = None
+
+    family: ClassVar[str] = "AR"
+    description: ClassVar[str] = "autoregressive process AR(p) (discrete time)"
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (_PHI, _SIGMA2)
+    structural_fields: ClassVar[tuple[str, ...]] = ("order",)
+
+    def __attrs_post_init__(self) -> None:
+        arr = None if self.phi is None else _phi_array(self.phi)
+        order = self.order
+        if order is None:
+            order = arr.size if arr is not None else 1
+        order = _check_order(order)
+        if arr is not None and arr.size != order:
+            raise SpecError(f"AR order {order} does not match the {arr.size} coefficient(s) in phi={arr.tolist()}")
+        object.__setattr__(self, "order", order)
+        if arr is not None:
+            if not np.all(np.isfinite(arr)):
+                raise DomainError(f"AR.phi = {arr.tolist()} must be finite")
+            if not get_domain(_PHI.domain).contains(arr):  # partial autocorrelations in (-1, 1)
+                radius = float(np.max(np.abs(np.roots(np.concatenate([[1.0], -arr])))))
+                raise DomainError(
+                    f"AR.phi = {arr.tolist()} is not stationary: the roots of z^p - phi_1 z^(p-1) "
+                    f"- ... - phi_p must lie inside the unit circle; the largest has modulus {radius:.9g}"
+                )
+            object.__setattr__(self, "phi", tuple(float(c) for c in arr))
+            _stationary_roots(self.phi)  # the PACF test rounds; the refined roots decide
+        if self.sigma2 is not None:
+            object.__setattr__(self, "sigma2", _SIGMA2.check(self.sigma2, self.family))
+
+    def parameters(self) -> tuple[Parameter, ...]:
+        """``phi`` (size = order) and ``sigma2``."""
+        return (attrs.evolve(_PHI, size=self.order), _SIGMA2)
+
+    # ------------------------------------------------------------------ helpers
+    def _roots(self) -> ARRoots:
+        self._require_values()
+        return _stationary_roots(self.phi)
+
+    def _companion(self) -> np.ndarray:
+        p = self.order
+        A = np.zeros((p, p))
+        A[0] = self.phi
+        A[1:, :-1] = np.eye(p - 1)
+        return A
+
+    # ------------------------------------------------------------------ theory
+    def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
+        """Haar: exact residue sum over the roots (u^2); other wavelets: PSD quadrature.
+
+        Per level, the better conditioned of two exact forms: ``sum_l c_l W_m(z_l)``, or
+        ``LRV / (2m) + sum_l c_l R_m(z_l)`` with the long-run variance
+        ``LRV = sigma2 / (1 - sum phi)^2`` (exactly rounded) and the decaying part R_m of the
+        Haar kernel (:func:`stochmod.geometric.haar_wv_geometric_parts`); the second keeps its
+        digits at deep levels when roots close to the unit circle make the residues large.
+        """
+        if wavelet != "haar":
+            return super().wv(levels, freq, wavelet)
+        check_freq(freq)
+        m = 2.0 ** np.arange(check_positive_int(levels, name="levels"))
+        roots = self._roots()
+
+        def haar(mm: np.ndarray):  # kernel W_m for the half-widths mm
+            def kernel(sign: np.ndarray, u: np.ndarray, cols: np.ndarray) -> np.ndarray:
+                w = haar_wv_geometric(-u[:, None], mm[None, cols], sign=sign[:, None])
+                return w.astype(np.complex128)
+            return kernel
+
+        whole = haar(m)
+
+        def decaying(sign: np.ndarray, u: np.ndarray, cols: np.ndarray) -> np.ndarray:
+            rest = haar_wv_geometric_parts(-u[:, None], m[None, cols], sign=sign[:, None])[1]
+            return rest.astype(np.complex128)
+
+        direct, err_direct = roots.residue_sum(whole, 2.0 * m, smooth=True)
+        rest, err_rest = roots.residue_sum(decaying, 2.0 * m, smooth=True)
+        phi1 = float(1 - sum(Fraction(c) for c in self.phi))  # 1 - sum phi, exactly rounded
+        lead = 1.0 / (phi1 * phi1 * 2.0 * m)
+        use_split = lead + err_rest < err_direct
+        out = np.where(use_split, lead + rest, direct)
+        # estimated relative rounding error; redo the worst levels with double-double residues
+        est = _EPS * np.where(use_split, lead + err_rest, err_direct) / np.abs(out)
+        bad = est > _PRECISE_ABOVE
+        # complex roots near the unit circle: z^m carries a phase m arg(z) that double
+        # precision only knows to m * eps; the double-double residues use the refined roots
+        cplx = roots.partner != np.arange(roots.p)
+        for uk in roots.u[cplx]:
+            with np.errstate(under="ignore"):
+                bad |= np.exp(-m * uk.real) * m * abs(uk.imag) > 1e3
+        if np.any(bad):
+            out[bad] = roots.haar_sum_precise(haar(m[bad]), m[bad])
+        return self.sigma2 * out
+
+    def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
+        """Jacobian of the Haar WV w.r.t. ``(phi_1..phi_p, sigma2)``, shape (levels, p + 1).
+
+        ``d wv / d sigma2 = wv / sigma2`` exactly. The phi columns by Richardson-extrapolated
+        central differences (steps as represented in binary), per level from the step of a
+        ladder ``(0.3, 1e-2, 1e-4) * margin`` with the smallest estimated error (truncation:
+        the Richardson correction; rounding: ``1e-12 wv / step``, the WV's worst relative
+        accuracy). The margin ``min(1, min_k |P(z_k / |z_k|)| / p)`` is the distance in
+        phi-space to non-stationarity (``(1 - |z|) |P'(z)|`` for a simple root, the square of
+        the distance for a double one), the scale on which the WV varies with phi; a step is
+        divided by 8 until the perturbed coefficients stay stationary. Relative
+        accuracy ~1e-8 or better.
+        """
+        freq = check_freq(freq)
+        base = self.wv(levels, freq)
+        z = self._roots().z
+        # distance in phi-space to non-stationarity: |P| at the roots' projections on the circle
+        on_circle = np.where(z != 0, z / np.where(z != 0, np.abs(z), 1.0), 1.0)
+        scale = min(1.0, float(np.min(np.abs(np.prod(on_circle[:, None] - z[None, :], axis=1)))) / z.size)
+        phi = np.asarray(self.phi)
+
+        def central(i: int, step: float) -> np.ndarray:
+            hi, lo = phi.copy(), phi.copy()
+            hi[i] += step
+            lo[i] -= step
+            up = AR(phi=hi, sigma2=self.sigma2).wv(levels, freq)
+            down = AR(phi=lo, sigma2=self.sigma2).wv(levels, freq)
+            return (up - down) / (hi[i] - lo[i])
+
+        cols = []
+        for i in range(self.order):
+            best = np.full(levels, np.inf)
+            col = np.zeros(levels)
+            for rel in (0.3, 1e-2, 1e-4):
+                h = rel * scale
+                while True:
+                    try:
+                        coarse, fine = central(i, h), central(i, h / 2)
+                        break
+                    except DomainError:
+                        h /= 8.0
+                err = np.abs(fine - coarse) / 3.0 + 1e-12 * np.abs(base) / h
+                better = err < best
+                col = np.where(better, (4.0 * fine - coarse) / 3.0, col)
+                best = np.minimum(err, best)
+            cols.append(col)
+        cols.append(base / self.sigma2)
+        return np.column_stack(cols)
+
+    def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
+        """Exact autocovariance at integer `lags` (samples), u^2: residues at the roots."""
+        check_freq(freq)
+        roots = self._roots()
+        lags = np.asarray(lags)
+        h = np.abs(lags.astype(np.float64)).reshape(-1)
+        out = np.empty(h.size)
+        for start in range(0, h.size, _CHUNK):
+            hh = h[start : start + _CHUNK]
+
+            def kernel(sign: np.ndarray, u: np.ndarray, cols: np.ndarray, hh: np.ndarray = hh) -> np.ndarray:
+                k = hh[None, cols]
+                with np.errstate(invalid="ignore", over="ignore"):
+                    zh = sign[:, None] ** k * np.exp(-u[:, None] * k)
+                return np.where(k == 0, 1.0 + 0j, zh)
+
+            out[start : start + hh.size] = roots.residue_sum(kernel, hh)[0]
+        return self.sigma2 * out.reshape(lags.shape)
+
+    def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
+        """Two-sided PSD ``sigma2 / (freq prod_l |e^{iw} - z_l|^2)``, w = 2 pi f / freq (u^2/Hz).
+
+        Each factor is formed about the root's anchor (+1, -1 or 0) so that it keeps its digits
+        near f = 0 (root near +1) and f = freq/2 (root near -1).
+        """
+        freq = check_freq(freq)
+        roots = self._roots()
+        fa = np.abs(np.asarray(f, dtype=np.float64))
+        w = 2.0 * np.pi * fa / freq
+        # e^{iw} - 1 and e^{iw} + 1 without cancellation
+        near_p = -2.0 * np.sin(0.5 * w) ** 2 + 1j * np.sin(w)
+        v = 2.0 * np.pi * (fa - 0.5 * freq) / freq  # w - pi
+        near_m = 2.0 * np.sin(0.5 * v) ** 2 - 1j * np.sin(v)
+        e = np.exp(1j * w)
+        den = np.ones(fa.shape)
+        for a, wl in zip(roots.anchor, roots.w):
+            base = near_p if a > 0 else (near_m if a < 0 else e)
+            den = den * np.abs(base - wl) ** 2
+        return self.sigma2 / (freq * den)
+
+    # ------------------------------------------------------------------ state space
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """``value`` (x_t) then ``lag1`` ... ``lag{p-1}`` (x_{t-1} ...), u."""
+        return ("value",) + tuple(f"lag{i}" for i in range(1, self.order))
+
+    def discrete_block(self, freq: float) -> StateSpaceBlock:
+        """Companion form at the native step 1/freq: ``Phi`` companion, ``Q = sigma2 e1 e1'``."""
+        self._require_values()
+        freq = check_freq(freq)
+        Q = np.zeros((self.order, self.order))
+        Q[0, 0] = self.sigma2
+        return StateSpaceBlock(self.state_names, self._companion(), Q, self.output_row(freq),
+                               self.initial_covariance(freq), 0.0, 1.0 / freq, None)
+
+    def initial_covariance(self, freq: float) -> np.ndarray:
+        """Stationary covariance of the state: ``Toeplitz(gamma(0..p-1))`` (u^2), the solution of
+        ``P = Phi P Phi' + Q`` (scipy.linalg.solve_discrete_lyapunov), from the exact gamma."""
+        return scipy.linalg.toeplitz(self.autocovariance(np.arange(self.order), freq))
+
+    # ------------------------------------------------------------------ simulation
+    def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
+        """The recursion (scipy.signal.lfilter) started from the stationary law of the p past values."""
+        self._require_values()
+        n = check_positive_int(n, name="n")
+        g = as_generator(rng)
+        P0 = self.initial_covariance(check_freq(freq))
+        evals, evecs = np.linalg.eigh(P0)
+        past = (evecs * np.sqrt(np.clip(evals, 0.0, None))) @ g.standard_normal(self.order)
+        a = np.concatenate([[1.0], -np.asarray(self.phi)])
+        zi = scipy.signal.lfiltic([1.0], a, past)  # past = (x_{-1}, x_{-2}, ...)
+        e = math.sqrt(self.sigma2) * g.standard_normal(n)
+        return scipy.signal.lfilter([1.0], a, e, zi=zi)[0]
+
+    # ------------------------------------------------------------------ estimation support
+    def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,
+              rng: np.random.Generator | None = None) -> AR:
+        """A stable AR(1)-shaped guess ``phi = (r, 0, ..., 0)`` from an empirical Haar WV (u^2).
+
+        The first AR of a model matches r and sigma2 to the WV at levels 1 and 2 (an AR(1)
+        has ``wv_2 / wv_1 = W_2(r) / W_1(r)``, monotone in r); further ones (`index` >= 1 of
+        `count`) are placed at deeper levels like GM starts (``r = exp(-1.89 / m)``).
+        `rng` perturbs atanh(r) (sd 0.3) and sigma2 (log-normal, sd 0.5).
+        """
+        wv = as_signal(wv, name="wv", min_length=1)
+        check_freq(freq)
+        count = check_positive_int(count, name="count")
+        index = check_positive_int(index, name="index", minimum=0)
+        if index >= count:
+            raise InputError(f"index must be < count = {count}, got {index}")
+        if not np.all(wv > 0):
+            raise InputError("wv must be positive at every level to start AR")
+        if index == 0 and wv.size >= 2:
+            r = _ar1_from_ratio(float(wv[1] / wv[0]))
+            j = 1
+        else:
+            j = 1 + round((wv.size - 1) * (index + 1) / (count + 1))
+            r = math.exp(-1.8926178329250188 / 2.0 ** (j - 1))
+        if rng is not None:
+            r = math.tanh(math.atanh(r) + rng.normal(0.0, 0.3))
+        log_r = math.log(abs(r)) if r != 0 else -math.inf
+        gamma0_per_level = float(haar_wv_geometric(log_r, 2 ** (j - 1), sign=1 if r >= 0 else -1))
+        sigma2 = float(wv[j - 1]) / gamma0_per_level * (1.0 - r) * (1.0 + r)
+        if rng is not None:
+            sigma2 *= float(np.exp(rng.normal(0.0, 0.5)))
+        phi = [r] + [0.0] * (self.order - 1)
+        return self.with_values(phi=phi, sigma2=sigma2)
+
+    @classmethod
+    def example(cls, freq: float) -> AR:
+        """AR(2) ``phi = (1.5, -0.75)``: complex roots of modulus 0.866 at +-30 degrees (a damped
+        oscillation of period 12 samples), ``sigma2 = 1``."""
+        return cls(phi=(1.5, -0.75), sigma2=1.0)
+
+    def physical(self, freq: float) -> dict[str, PhysicalValue]:
+        """Stationary sigma (u) and the e-folding time of the slowest root (s)."""
+        freq = check_freq(freq)
+        roots = self._roots()
+        slowest = float(np.min(roots.u.real))
+        return {
+            "sigma": PhysicalValue(math.sqrt(float(self.autocovariance(0, freq))), "u",
+                                   "stationary standard deviation"),
+            "Tc": PhysicalValue(1.0 / (slowest * freq) if slowest > 0 else math.inf, "s",
+                                "e-folding time of the slowest root, -1/(freq log|z|)"),
+        }
+
+
+def _stationary_roots(phi: tuple[float, ...]) -> ARRoots:
+    roots = ar_roots(phi)
+    if not np.all(roots.abs2m1 < 0):
+        raise DomainError(
+            f"AR.phi = {list(phi)} is not stationary: the polynomial with these (binary) "
+            f"coefficients has a root of modulus 1 + {float(np.max(roots.abs2m1)) / 2:.3g} >= 1"
+        )
+    return roots
+
+
+def _ar1_from_ratio(ratio: float) -> float:
+    """The r in (-0.99, 0.99) whose AR(1) has ``wv_2 / wv_1 = ratio`` (clipped at the ends)."""
+
+    def f(r: float) -> float:
+        lr = math.log(abs(r)) if r else -math.inf
+        s = 1 if r >= 0 else -1
+        return float(haar_wv_geometric(lr, 2, sign=s) / haar_wv_geometric(lr, 1, sign=s)) - ratio
+
+    lo, hi = -0.99, 0.99
+    if f(lo) >= 0:
+        return lo
+    if f(hi) <= 0:
+        return hi
+    return float(scipy.optimize.brentq(f, lo, hi, xtol=1e-12))
+
+
+@hookimpl
+def stochmod_processes() -> list[type[Process]]:
+    """Register AR."""
+    return [AR]
