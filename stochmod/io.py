@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import csv
 import io as _io
+import zipfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import attrs
 import numpy as np
@@ -17,6 +20,8 @@ from stochmod._validation import as_signals
 from stochmod.errors import InputError
 
 __all__ = ["Recording", "read_recording"]
+
+_T = TypeVar("_T")
 
 
 @attrs.frozen
@@ -148,6 +153,16 @@ def _read_npz(path: Path) -> tuple[np.ndarray, tuple[str, ...], float | None]:
     return np.hstack(blocks).astype(np.float64), tuple(columns), freq
 
 
+def _unreadable_as_input_error(reader: Callable[..., _T], path: Path, **kwargs: Any) -> _T:
+    """Call ``reader(path, **kwargs)``; numpy's errors on corrupt or pickled files become InputError."""
+    try:
+        return reader(path, **kwargs)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"cannot read {path} as {path.suffix}: {exc}") from None
+
+
 def read_recording(path: str | Path, *, columns: list[str | int] | None = None) -> Recording:
     """Read a recording from a CSV, ``.npy`` or ``.npz`` file.
 
@@ -176,13 +191,13 @@ def read_recording(path: str | Path, *, columns: list[str | int] | None = None) 
     suffix = path.suffix.lower()
     freq = None
     if suffix == ".npy":
-        arr = np.load(path, allow_pickle=False)
+        arr = _unreadable_as_input_error(np.load, path, allow_pickle=False)
         data = as_signals(arr, name=str(path))
         names = tuple(str(i) for i in range(data.shape[1]))
     elif suffix == ".npz":
-        data, names, freq = _read_npz(path)
+        data, names, freq = _unreadable_as_input_error(_read_npz, path)
     elif suffix in {".csv", ".txt", ".dat", ".tsv", ""}:
-        data, names = _read_csv(path)
+        data, names = _unreadable_as_input_error(_read_csv, path)
     else:
         raise InputError(f"unknown file format {suffix!r} for {path}; use .csv, .npy or .npz")
     data = as_signals(data, name=str(path))

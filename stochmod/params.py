@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import attrs
 import numpy as np
+from scipy.special import expit
 
 from stochmod.errors import DomainError
 
@@ -121,7 +122,7 @@ DOMAINS: dict[str, Domain] = {
         ),
         Domain(
             "unit_interval", "0 < x < 1", _all(lambda v: (v > 0) & (v < 1)),
-            lambda v: np.log(v) - np.log1p(-v), lambda t: 0.5 * (1 + np.tanh(t / 2)),
+            lambda v: np.log(v) - np.log1p(-v), expit,
             lambda t: 0.25 / np.cosh(t / 2) ** 2,
         ),
         Domain(
@@ -182,4 +183,4 @@ class Parameter:
                 f"{family}.{self.name} = {value!r} is outside its domain "
                 f"({get_domain(self.domain).description})"
             )
-        return float(arr) if self.size == 1 else arr.reshape(-1).copy()
+        return float(arr.reshape(-1)[0]) if self.size == 1 else arr.reshape(-1).copy()

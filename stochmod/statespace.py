@@ -9,6 +9,7 @@ initial covariance ``P0``. Where a continuous-time form ``dx = F x dt + G dW`` w
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import attrs
@@ -56,17 +57,28 @@ def van_loan(block: ContinuousBlock, dt: float) -> tuple[np.ndarray, np.ndarray]
     -------
     Phi, Q : ndarray
         ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) G Qc G^T expm(F^T s) ds``.
+
+    Notes
+    -----
+    Van Loan's block matrix holds ``expm(-F dt)``, which overflows when ``F dt`` is large
+    (a fast Gauss-Markov process over a long filter step). The step is therefore split into
+    ``2^s`` sub-steps with ``||F dt / 2^s|| <= 1`` that are composed exactly by repeated
+    squaring (:func:`compose_steps`).
     """
     k = block.F.shape[0]
     gqg = block.G @ block.Qc @ block.G.T
+    norm = float(np.abs(block.F).sum(axis=1).max(initial=0.0)) * dt
+    squarings = max(0, math.ceil(math.log2(norm))) if norm > 1 else 0
+    h = dt / 2.0**squarings
     M = np.zeros((2 * k, 2 * k))
     M[:k, :k] = -block.F
     M[:k, k:] = gqg
     M[k:, k:] = block.F.T
-    E = expm(M * dt)
-    Phi = E[k:, k:].T
+    E = expm(M * h)
+    Phi = expm(block.F * h)  # on its own: exact zeros where F's structure has them
     Q = Phi @ E[:k, k:]
-    return Phi, 0.5 * (Q + Q.T)
+    Q = 0.5 * (Q + Q.T)
+    return compose_steps(Phi, Q, 2**squarings) if squarings else (Phi, Q)
 
 
 def compose_steps(Phi: np.ndarray, Q: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:

@@ -85,8 +85,10 @@ def wv_from_psd(
     -----
     Composite 12-point Gauss-Legendre panels between the zeros ``k / 2^(j-1)`` of the filter
     gain, refined geometrically towards f = 0 so that PSDs singular at the origin
-    (``1/f``, ``1/f^2``) are integrated accurately; relative accuracy about 1e-10 for smooth
-    PSDs. The cost is O(2^j) per level.
+    (``1/f``, ``1/f^2``) are integrated accurately. Panels on which the PSD is not resolved
+    (its Legendre coefficients at the 12 nodes have not decayed, e.g. the sharp peak of an
+    AR(2) near the unit circle) are bisected until they are; relative accuracy about 1e-10.
+    The cost is O(2^j) per level.
     """
     out = np.empty(levels)
     extra = np.asarray([b / freq for b in breakpoints if 0 < b / freq < 0.5])
@@ -97,9 +99,33 @@ def wv_from_psd(
         edges = np.arange(0, per // 2 + 1) / per if per > 1 else np.array([0.0])
         near_zero = (1.0 / (2 * m)) * 2.0 ** -np.arange(0, 60)
         edges = np.unique(np.concatenate([edges, near_zero, extra, [0.5]]))
-        a, b = edges[:-1], edges[1:]
+        out[j - 1] = 2.0 * _integrate_panels(psd, j, wavelet, freq, edges[:-1], edges[1:])
+    return out
+
+
+# PSD values at the 12 nodes -> coefficients of its Legendre series on the panel
+_TO_LEGENDRE = np.linalg.inv(np.polynomial.legendre.legvander(_GL_NODES, _GL_NODES.size - 1))
+_MAX_BISECTIONS = 40
+
+
+def _integrate_panels(psd: Callable[[np.ndarray], np.ndarray], level: int, wavelet: str,
+                      freq: float, a: np.ndarray, b: np.ndarray) -> float:
+    """``int |H_j(f)|^2 S(f) freq df`` over the panels [a, b] (f in cycles/sample), bisecting
+    the panels whose PSD is not resolved by the 12-point rule."""
+    total = 0.0
+    for _ in range(_MAX_BISECTIONS):
         half = 0.5 * (b - a)
         x = (a + half)[:, None] + half[:, None] * _GL_NODES[None, :]
-        integrand = squared_gain(x, j, wavelet) * np.asarray(psd(x * freq), dtype=np.float64) * freq
-        out[j - 1] = 2.0 * np.sum(half[:, None] * _GL_WEIGHTS[None, :] * integrand)
-    return out
+        gain = squared_gain(x, level, wavelet)
+        s = np.asarray(psd(x * freq), dtype=np.float64).reshape(x.shape)
+        parts = half * ((gain * s * freq) @ _GL_WEIGHTS)
+        # error bound of a panel: the size of the PSD's last Legendre terms times its weight
+        tail = np.abs(s @ _TO_LEGENDRE[-2:].T).sum(axis=1)
+        err = tail * 2.0 * half * freq * gain.max(axis=1)
+        bad = (err > 1e-12 * abs(total + parts.sum())) & (b - a > 1e-12)
+        total += float(parts[~bad].sum())
+        if not bad.any():
+            return total
+        mid = a[bad] + half[bad]
+        a, b = np.concatenate([a[bad], mid]), np.concatenate([mid, b[bad]])
+    return total + float(parts[bad].sum())

@@ -1,0 +1,346 @@
+"""The conformance kit itself: it passes a correct toy family and FAILS, precisely on the
+check concerned, on deliberately broken ones (so every check is shown able to fail).
+
+The toy family OU is a first-order Gauss-Markov process written here from its textbook closed
+forms (AR(1) with phi = exp(-beta/freq): autocovariance sigma2 phi^|k|, sampled PSD
+sigma2 (1 - phi^2) / (freq |1 - phi e^{-i 2 pi f / freq}|^2), SDE dx = -beta x dt + dW with
+Qc = 2 beta sigma2), independent of the first-party GM plugin.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import attrs
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, find, given, settings
+from scipy.signal import lfilter
+
+import stochmod
+from stochmod.errors import InputError
+from stochmod.params import DOMAINS, Parameter, get_domain
+from stochmod.process import Process, as_generator
+from stochmod.statespace import ContinuousBlock, StateSpaceBlock
+from stochmod.testing import (
+    CHECKS,
+    ConformanceReport,
+    check_family,
+    check_wv_monte_carlo,
+    strategy_for,
+)
+
+WN = stochmod.get_process("WN")
+
+
+@attrs.frozen
+class OU(Process):
+    """Toy first-order Gauss-Markov process (see the module docstring)."""
+
+    beta: float | None = None
+    sigma2: float | None = None
+
+    family: ClassVar[str] = "OUtoy"
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("beta", "positive", "1/s"),
+        Parameter("sigma2", "positive", "u^2"),
+    )
+
+    def _phi(self, freq: float) -> float:
+        return math.exp(-self.beta / freq)
+
+    def autocovariance(self, lags, freq):
+        return self.sigma2 * self._phi(freq) ** np.abs(np.asarray(lags, dtype=float))
+
+    def psd(self, f, freq):
+        phi = self._phi(freq)
+        w = 2 * np.pi * np.asarray(f, dtype=float) / freq
+        return self.sigma2 * (1 - phi**2) / (freq * (1 - 2 * phi * np.cos(w) + phi**2))
+
+    @property
+    def state_names(self):
+        return ("x",)
+
+    def continuous_block(self, freq):
+        return ContinuousBlock([[-self.beta]], [[1.0]], [[2 * self.beta * self.sigma2]])
+
+    def initial_covariance(self, freq):
+        return np.array([[self.sigma2]])
+
+    def simulate(self, n, freq, rng):
+        g = as_generator(rng)
+        phi = self._phi(freq)
+        e = g.standard_normal(n) * math.sqrt(self.sigma2 * (1 - phi**2))
+        e[0] = g.standard_normal() * math.sqrt(self.sigma2)
+        return lfilter([1.0], [1.0, -phi], e)
+
+    @classmethod
+    def example(cls, freq):
+        return cls(beta=freq / 20.0, sigma2=1.0)
+
+
+# --------------------------------------------------------------------- broken families
+@attrs.frozen
+class WNWrongWV(WN):
+    """WV 10% too high (and hence its analytic Jacobian disagrees with it)."""
+
+    family: ClassVar[str] = "WNwrongwv"
+
+    def wv(self, levels, freq, wavelet="haar"):
+        return 1.1 * super().wv(levels, freq, wavelet)
+
+
+@attrs.frozen
+class WNWrongPSD(WN):
+    """PSD integrates to 1.2 sigma2."""
+
+    family: ClassVar[str] = "WNwrongpsd"
+
+    def psd(self, f, freq):
+        return 1.2 * super().psd(f, freq)
+
+
+@attrs.frozen
+class WNNegativeWV(WN):
+    """WV negative for sigma2 < 1e-6 (correct at the example)."""
+
+    family: ClassVar[str] = "WNnegwv"
+
+    def wv(self, levels, freq, wavelet="haar"):
+        wv = super().wv(levels, freq, wavelet)
+        return -wv if self.sigma2 < 1e-6 else wv
+
+
+@attrs.frozen
+class WNNoValidation(WN):
+    """Accepts any value."""
+
+    family: ClassVar[str] = "WNnoval"
+
+    def __attrs_post_init__(self):
+        pass
+
+
+@attrs.frozen
+class WNLossySpec(WN):
+    """to_spec forgets the values."""
+
+    family: ClassVar[str] = "WNlossy"
+
+    def to_spec(self):
+        return {"family": self.family, "params": {}}
+
+
+@attrs.frozen
+class WNWrongSimulation(WN):
+    """Simulates with variance 1.1 sigma2."""
+
+    family: ClassVar[str] = "WNwrongsim"
+
+    def simulate(self, n, freq, rng):
+        return math.sqrt(1.1) * super().simulate(n, freq, rng)
+
+
+_unseeded = np.random.default_rng()
+
+
+@attrs.frozen
+class WNUnseeded(WN):
+    """Ignores the seed."""
+
+    family: ClassVar[str] = "WNunseeded"
+
+    def simulate(self, n, freq, rng):
+        return math.sqrt(self.sigma2) * _unseeded.standard_normal(int(n))
+
+
+@attrs.frozen
+class WNNoExample(WN):
+    """Does not provide an example instance."""
+
+    family: ClassVar[str] = "WNnoex"
+    example = classmethod(Process.example.__func__)
+
+
+@attrs.frozen
+class OUWrongBlock(OU):
+    """Continuous block with twice the driving noise."""
+
+    family: ClassVar[str] = "OUwrongblock"
+
+    def continuous_block(self, freq):
+        return ContinuousBlock([[-self.beta]], [[1.0]], [[4 * self.beta * self.sigma2]])
+
+
+@attrs.frozen
+class OUEulerNative(OU):
+    """Native block by Euler discretisation, inconsistent with the exact block(dt)."""
+
+    family: ClassVar[str] = "OUeuler"
+
+    def discrete_block(self, freq):
+        dt = 1 / freq
+        return StateSpaceBlock(("x",), [[1 - self.beta * dt]], [[2 * self.beta * self.sigma2 * dt]],
+                               [1.0], [[self.sigma2]], 0.0, dt)
+
+
+@attrs.frozen
+class OUWrongJacobian(OU):
+    """Analytic Jacobian 1% off."""
+
+    family: ClassVar[str] = "OUwrongjac"
+
+    def wv_jacobian(self, levels, freq):
+        return 1.01 * super().wv_jacobian(levels, freq)
+
+
+# --------------------------------------------------------------------- tests
+def test_the_kit_passes_a_correct_family(register) -> None:
+    report = check_family(register(OU), freq=100.0, rng=5)
+    report.raise_if_failed()
+    assert report.passed == tuple(CHECKS)  # every check applies to a stateful stationary family
+    # figures are measurements: the PSD integral equals sigma2 = 1 of the example
+    assert report.figures["psd_integral"]["integral"] == pytest.approx(1.0, rel=1e-9)
+    assert report.figures["rediscretisation"]["n_states"] == 1
+
+
+@pytest.mark.parametrize(
+    ("cls", "expected"),
+    [
+        (WNWrongWV, {"wv_monte_carlo", "wv_fallbacks", "wv_jacobian"}),
+        (WNWrongPSD, {"psd_integral", "wv_fallbacks"}),
+        (WNNegativeWV, {"wv_domain"}),
+        (WNNoValidation, {"bad_values"}),
+        (WNLossySpec, {"round_trips"}),
+        (WNWrongSimulation, {"wv_monte_carlo"}),
+        (WNUnseeded, {"simulate"}),
+        (OUWrongBlock, {"state_space"}),
+        (OUEulerNative, {"rediscretisation"}),
+        (OUWrongJacobian, {"wv_jacobian"}),
+    ],
+    ids=lambda v: v.__name__ if isinstance(v, type) else None,
+)
+def test_the_kit_fails_on_a_broken_family(register, cls, expected) -> None:
+    report = check_family(register(cls), freq=100.0, rng=7)
+    assert set(report.failed) == expected, report.summary()
+    with pytest.raises(AssertionError, match=cls.family):
+        report.raise_if_failed()
+
+
+def test_failure_messages_are_precise(register) -> None:
+    report = check_family(register(WNWrongWV), freq=100.0, rng=7, checks=["wv_monte_carlo", "wv_fallbacks"])
+    # the level, the theory and the Monte Carlo mean are named
+    assert "j=1: theory 0.55" in report.failed["wv_monte_carlo"]
+    assert "exact Haar sum over the autocovariance" in report.failed["wv_fallbacks"]
+    bad = check_family(register(WNNoValidation), freq=100.0, checks=["bad_values"]).failed["bad_values"]
+    assert "sigma2 = -1.0" in bad and "DomainError" in bad
+
+
+def test_missing_example_is_a_failure_not_a_skip(register) -> None:
+    report = check_family(register(WNNoExample), freq=100.0)
+    assert set(report.failed) == set(CHECKS) and not report.skipped
+    assert "no example" in report.failed["example"]
+    # an instance can still be checked, but the class's missing example still fails
+    report = check_family(WNNoExample(sigma2=2.0), freq=100.0, checks=["example", "psd_integral"])
+    assert report.passed == ("psd_integral",) and set(report.failed) == {"example"}
+
+
+def test_skips_carry_reasons() -> None:
+    report = check_family(WN, freq=100.0, checks=["rediscretisation"])
+    assert report.skipped == {"rediscretisation": "WN is feed-through only (no states to re-discretise)"}
+    assert report.ok
+
+
+def test_report_is_reproducible_and_readable(register) -> None:
+    a = check_family(register(OU), freq=50.0, rng=3, checks=["wv_monte_carlo", "state_space"])
+    b = check_family(OU, freq=50.0, rng=3, checks=["wv_monte_carlo", "state_space"])
+    assert a == b
+    assert isinstance(a, ConformanceReport)
+    text = a.summary()
+    assert "Conformance of OUtoy at 50 Hz" in text and "wv_monte_carlo" in text and "passed" in text
+
+
+def test_bad_arguments_are_refused() -> None:
+    with pytest.raises(InputError, match="unknown check"):
+        check_family(WN, checks=["nonsense"])
+    with pytest.raises(InputError, match="free parameter"):
+        check_family(WN())
+    with pytest.raises(InputError, match="Process"):
+        check_family(int)
+    with pytest.raises(InputError, match="no level"):
+        check_wv_monte_carlo(WN(sigma2=1.0), n=8)
+
+
+def test_monte_carlo_check_detects_a_small_bias_when_asked_for_power() -> None:
+    """A 2% error in the theory passes the cheap default but not a stronger run."""
+
+    class Slightly(WN):
+        def wv(self, levels, freq, wavelet="haar"):
+            return 1.02 * super().wv(levels, freq, wavelet)
+
+    p = attrs.frozen(Slightly)(sigma2=1.0)
+    with pytest.raises(AssertionError, match="j=1"):
+        check_wv_monte_carlo(p, 100.0, rng=0, n_mc=40, n=2**16)
+
+
+# --------------------------------------------------------------------- strategy_for
+@attrs.frozen
+class AllDomains(Process):
+    """A family with one parameter in each built-in domain (for strategy_for)."""
+
+    a: float | None = None
+    b: float | None = None
+    c: float | None = None
+    d: float | None = None
+    phi: tuple | None = None
+
+    family: ClassVar[str] = "AllDomains"
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("a", "positive", "u^2"),
+        Parameter("b", "real", "u"),
+        Parameter("c", "correlation", "1"),
+        Parameter("d", "unit_interval", "1"),
+        Parameter("phi", "stationary_ar", "1", size=3),
+    )
+
+
+def _largest_root(phi) -> float:
+    """Largest modulus of the roots of z^p - phi_1 z^(p-1) - ... - phi_p (< 1: stationary)."""
+    return float(np.max(np.abs(np.roots(np.r_[1.0, -np.asarray(phi)]))))
+
+
+def test_builtin_domains_all_have_a_strategy() -> None:
+    assert {s.domain for s in AllDomains.parameter_specs} == set(DOMAINS)
+
+
+@settings(max_examples=200, suppress_health_check=[HealthCheck.too_slow], deadline=None)
+@given(strategy_for(AllDomains))
+def test_strategy_draws_inside_every_domain(p: AllDomains) -> None:
+    for spec in p.parameters():
+        value = np.asarray(getattr(p, spec.name), dtype=float)
+        assert get_domain(spec.domain).contains(value)
+
+
+@pytest.mark.parametrize(
+    ("name", "condition"),
+    [
+        ("small positive", lambda p: p.a < 1e-6),
+        ("large positive", lambda p: p.a > 1e6),
+        ("negative real", lambda p: p.b < -1e3),
+        ("zero real", lambda p: p.b == 0.0),
+        ("correlation near -1", lambda p: p.c < -0.999),
+        ("unit interval near 1", lambda p: p.d > 0.999),
+        ("AR near a unit root", lambda p: _largest_root(p.phi) > 0.99),
+    ],
+)
+def test_strategy_reaches_the_edges_of_the_domain(name, condition) -> None:
+    settings_ = settings(max_examples=2000, database=None, phases=[Phase.generate],
+                         suppress_health_check=list(HealthCheck))
+    found = find(strategy_for(AllDomains), condition, settings=settings_)
+    assert condition(found)
+
+
+def test_strategy_keeps_an_instance_structure() -> None:
+    p = find(strategy_for(WN(sigma2=3.0)), lambda p: True)
+    assert isinstance(p, WN) and not p.is_free
