@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from stochmod import units
 from stochmod.errors import (
     DomainError,
     EstimationError,
@@ -22,7 +23,16 @@ from stochmod.model import Model, augment_axes, model_from_spec
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process
 from stochmod.registry import get_process, process_names, register_plugin, unregister_plugin
+from stochmod.fit.gmwm import GMWMResult, gmwm
+from stochmod.signal.acf import acf, fit_gm_acf
+from stochmod.signal.allan import AllanVariance, avar
+from stochmod.signal.allan_reading import AllanReading, allan_reading
+from stochmod.signal.ar_fit import burg, fit_ar, yule_walker
+from stochmod.signal.denoise import denoise
+from stochmod.signal.psd import psd, psd_reading
+from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 from stochmod.statespace import StateSpaceBlock
+from stochmod.units import STANDARD_GRAVITY, convert, from_si, to_si
 
 __version__ = "0.1.0"
 
@@ -41,6 +51,27 @@ __all__ = [
     "get_process",
     "register_plugin",
     "unregister_plugin",
+    "units",
+    "to_si",
+    "from_si",
+    "convert",
+    "STANDARD_GRAVITY",
+    "wvar",
+    "WaveletVariance",
+    "gmwm",
+    "GMWMResult",
+    "avar",
+    "AllanVariance",
+    "allan_reading",
+    "AllanReading",
+    "psd",
+    "psd_reading",
+    "acf",
+    "fit_gm_acf",
+    "burg",
+    "yule_walker",
+    "fit_ar",
+    "denoise",
     "StochmodError",
     "InputError",
     "DomainError",

@@ -252,7 +252,7 @@ class GMWMResult:
         out = []
         for name, v, se, unit in zip(self.free_names, vec, self.std_errors, units):
             if v > 0:
-                f = np.exp(z * se / v)
+                f = np.exp(min(z * se / v, 700.0))
                 lo, hi = v / f, v * f
             else:
                 lo, hi = v - z * se, v + z * se
@@ -287,7 +287,7 @@ class GMWMResult:
                         grad[i] = (proc.from_vector(up).physical(freq)[name].value - pv.value) / h
                 se = float(np.sqrt(max(grad @ Cp @ grad, 0.0)))
                 if pv.value > 0:
-                    f = np.exp(z * se / pv.value)
+                    f = np.exp(min(z * se / pv.value, 700.0))
                     lo, hi = pv.value / f, pv.value * f
                 else:
                     lo, hi = pv.value - z * se, pv.value + z * se

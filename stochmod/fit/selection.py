@@ -1,0 +1,648 @@
+"""Automatic model selection: fit a lattice of nested composite models by the GMWM and rank them.
+
+``select(x, freq)`` builds the candidates (given specs, or every combination of the families
+up to their maximal counts, e.g. 0..3 GM with WN, RW, QN, RR in or out), arranges them in a
+:class:`networkx.DiGraph` whose edges add one process, and fits them generation by generation
+with one weighting matrix ``Omega`` and one WV covariance ``V`` per signal, so that objectives
+and criteria compare. A child starts from each parent's fit padded with the new component
+(once at the family's starting guess, once with a negligible amplitude), so that its objective
+is never worse than any parent's. Fits run through any :class:`concurrent.futures.Executor`
+(``executor.map`` only: a ``dask.distributed`` client's ``get_executor()`` works unchanged);
+work items are plain data (specs, the empirical WV, ``Omega``, ``V``, seeds).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+import itertools
+import warnings
+from collections import Counter, defaultdict
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any
+
+import attrs
+import networkx as nx
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import optimize
+
+from stochmod._validation import as_signals, check_freq, check_positive_int
+from stochmod.errors import DomainError, EstimationError, InputError, SpecError
+from stochmod.fit import criteria as _criteria
+from stochmod.fit.gmwm import _BOUND, GMWMResult, _canonical, _Problem, _search
+from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, weighting_from_covariance
+from stochmod.io import Recording
+from stochmod.model import Model, as_model, model_from_spec
+from stochmod.process import Process
+from stochmod.reporting import format_table
+from stochmod.signal.wavelet_variance import WaveletVariance, wvar
+from stochmod.signal.wv_covariance import wv_covariance
+
+__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
+           "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]
+
+#: Families of the default lattice.
+DEFAULT_FAMILIES = ("GM", "WN", "RW", "QN", "RR")
+
+#: Weightings usable in a selection (the bootstrap weighting depends on each model's own fit,
+#: so it cannot be shared by all candidates).
+SELECTION_WEIGHTINGS = tuple(w for w in WEIGHTINGS if w != "bootstrap")
+
+_AUTO_PROGRESS = 8  # progress bar by default above this many fits
+_NEGLIGIBLE = 1e-30  # relative size of a padded component's WV (objective unchanged in float64)
+_ROOT_SEARCH = (6, 200)  # gmwm's (n_starts, n_random) for a candidate without fitted parent
+_PARENT_STARTS = 2  # a child starts from its best parents' fits (smallest objectives first)
+_SCALES = 6  # time scales at which an added process is tried
+_CHILD_RANDOM = 2  # perturbed family guesses screened for a child
+_CHILD_KEEP = 2  # screened starts refined by a local search
+_CHILD_NFEV = 300  # evaluation budget of one local search of a child
+_CHILD_TOL = 1e-10  # its tolerances (relative change of the objective / step)
+
+
+# --------------------------------------------------------------------------- candidates
+def _term_key(p: Process) -> tuple[str, tuple]:
+    """A process's structural identity: family and structural arguments (not values)."""
+    return p.family, tuple(sorted(p.structure().items()))
+
+
+def _terms(model: Model) -> Counter:
+    return Counter(_term_key(p) for p in model.processes)
+
+
+def candidate_lattice(families: Sequence[str] = DEFAULT_FAMILIES,
+                      max_counts: Mapping[str, int] | None = None) -> list[Model]:
+    """Every non-empty combination of `families` with 0..max_counts[f] copies of each.
+
+    Parameters
+    ----------
+    families : sequence of str
+        Family names (``"GM"``) or one-process terms (``"AR(2)"``), in the order the model
+        names list them.
+    max_counts : mapping of str to int, optional
+        Largest count per family (default 1 for a family not listed; e.g. ``{"GM": 3}``).
+
+    Returns
+    -------
+    list of Model
+        Free models, fewest processes first.
+    """
+    families = list(families)
+    if not families:
+        raise InputError("families is empty: name at least one process family")
+    if len(set(families)) != len(families):
+        raise InputError(f"families lists a family twice: {families}")
+    max_counts = dict(max_counts or {})
+    unknown = set(max_counts) - set(families)
+    if unknown:
+        raise InputError(f"max_counts names {sorted(unknown)}, which are not in families {families}")
+    protos = []
+    for fam in families:
+        model = model_from_spec(fam)
+        if len(model.processes) != 1:
+            raise InputError(f"families entries are single processes, got {fam!r}")
+        protos.append(model.processes[0].freed())
+    counts = []
+    for fam in families:
+        c = max_counts.get(fam, 1)
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 0:
+            raise InputError(f"max_counts[{fam!r}] must be a non-negative integer, got {c!r}")
+        counts.append(range(int(c) + 1))
+    out = []
+    for combo in itertools.product(*counts):
+        procs = tuple(p for p, c in zip(protos, combo) for _ in range(c))
+        if procs:
+            out.append(Model(procs))
+    if not out:
+        raise InputError("max_counts allows no process at all")
+    return sorted(out, key=lambda m: len(m.processes))
+
+
+def nested_graph(models: Sequence[Model]) -> nx.DiGraph:
+    """The DAG of `models` (nodes named ``model.name``) with an edge parent -> child wherever
+    the child is the parent plus exactly one process (same structure otherwise).
+
+    Node attributes: ``model`` (Model), ``n_params``; edge attribute ``added`` (family).
+    """
+    graph = nx.DiGraph()
+    keys = {}
+    for m in models:
+        if m.name in graph:
+            raise InputError(f"candidate {m.name!r} is listed twice")
+        graph.add_node(m.name, model=m, n_params=m.n_params)
+        keys[m.name] = _terms(m)
+    for child, ck in keys.items():
+        for parent, pk in keys.items():
+            diff = ck - pk
+            if sum(diff.values()) == 1 and not (pk - ck):
+                (added,) = diff
+                graph.add_edge(parent, child, added=added[0])
+    return graph
+
+
+def _as_candidates(candidates: Sequence[Any] | None, families: Sequence[str],
+                   max_counts: Mapping[str, int] | None) -> list[Model]:
+    if candidates is None:
+        return candidate_lattice(families, max_counts)
+    if isinstance(candidates, (str, Mapping, Model, Process)):
+        candidates = [candidates]
+    out = []
+    for c in candidates:
+        out.append(model_from_spec(c) if isinstance(c, (str, Mapping)) else as_model(c))
+    if not out:
+        raise InputError("candidates is empty: give at least one model spec, or None for the lattice")
+    return [attrs.evolve(m, freq=None) for m in out]
+
+
+# --------------------------------------------------------------------------- work items
+@attrs.frozen
+class _Column:
+    """What every fit of one signal shares: the empirical WV, Omega and V."""
+
+    empirical: WaveletVariance
+    omega: np.ndarray
+    covariance: np.ndarray
+
+
+@attrs.frozen
+class _Task:
+    """One GMWM fit; plain picklable data (specs, not models or callables).
+
+    A root (no fitted parent) gets gmwm's full multi-start search. A child gets local
+    searches from `starts` (always, e.g. the negligibly padded best parent) and from the
+    best `n_keep` of `screen` (padded parents, family guesses) by objective value.
+    """
+
+    column: int
+    name: str
+    spec: dict
+    freq: float
+    shared: _Column
+    weighting: str
+    seed: int
+    starts: tuple[dict, ...] = ()
+    screen: tuple[dict, ...] = ()
+
+    @property
+    def root(self) -> bool:
+        return not (self.starts or self.screen)
+
+
+def _prepare(item: tuple[np.ndarray, float, int | None, str]) -> _Column:
+    """Empirical WV, weighting and asymptotic WV covariance (eq. 17) of one signal."""
+    x, freq, levels, weighting = item
+    emp = wvar(x, freq, levels=levels)
+    J = emp.wv.size
+    if np.any(emp.wv <= 0):
+        raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
+    V = wv_covariance(x, J)
+    if weighting == "diagonal":
+        omega = np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels))
+    elif weighting == "identity":
+        omega = np.eye(J)
+    else:  # optimal
+        omega = weighting_from_covariance(V)
+    return _Column(emp, omega, V)
+
+
+def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
+                  ) -> dict[str, Any]:
+    """A child's fit: local least-squares searches of eq. 20 from its screened starts."""
+    problem = _Problem(base.start(nu_hat), nu_hat, task.shared.omega, mask)
+
+    def point(spec: dict) -> np.ndarray:
+        return model_from_spec(spec, task.freq).to_unconstrained()[mask]
+
+    gen = np.random.default_rng(task.seed)
+    pool = [point(s) for s in task.screen]
+    pool.append(problem.theta_full[mask])
+    pool.extend(base.start(nu_hat, rng=gen).to_unconstrained()[mask] for _ in range(_CHILD_RANDOM))
+    values = np.array([problem.safe_objective(x) for x in pool])
+    chosen = [pool[i] for i in np.argsort(values, kind="stable")[:_CHILD_KEEP]
+              if np.isfinite(values[i])]
+    best_screened = float(np.min(values)) if values.size else np.inf
+    for s in task.starts:  # searched unless a screened start is already as good
+        x = point(s)
+        if not problem.safe_objective(x) >= best_screened:
+            chosen.insert(0, x)
+    best: dict[str, Any] | None = None
+    nfev = 0
+    for x0 in chosen:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            res = optimize.least_squares(
+                problem.residuals, np.clip(x0, -_BOUND, _BOUND), jac=problem.jacobian,
+                bounds=(-_BOUND, _BOUND), method="trf", x_scale="jac", xtol=_CHILD_TOL,
+                ftol=_CHILD_TOL, gtol=_CHILD_TOL, max_nfev=_CHILD_NFEV)
+        nfev += res.nfev
+        value = problem.safe_objective(res.x)
+        if best is None or value < best["objective"]:
+            best = {"x": res.x, "objective": value, "converged": bool(res.success),
+                    "message": str(res.message)}
+    if best is None or not np.isfinite(best["objective"]):
+        raise EstimationError(f"GMWM failed to find a finite objective for {base.name}")
+    best.update(model=problem.model(best["x"]), nfev=nfev + len(pool), n_starts=len(chosen))
+    return best
+
+
+def _fit_task(task: _Task) -> GMWMResult:
+    """Fit one candidate with the column's shared Omega (module level: picklable)."""
+    emp = task.shared.empirical
+    J = emp.wv.size
+    nu_hat = np.asarray(emp.wv, float)
+    base = model_from_spec(task.spec, task.freq)
+    mask = base.free_mask()
+    if task.root:
+        fit = _search(base, nu_hat, task.shared.omega, mask, *_ROOT_SEARCH, (), task.seed)
+    else:
+        fit = _local_search(task, base, nu_hat, mask)
+    fitted = _canonical(fit["model"])
+    return GMWMResult(
+        model=fitted, empirical=emp, objective=fit["objective"], weighting=task.weighting,
+        omega=task.shared.omega, levels=J, converged=fit["converged"], message=fit["message"],
+        n_starts=fit["n_starts"], n_evaluations=fit["nfev"],
+        free_names=tuple(np.asarray(fitted.param_names)[mask]), free_mask=mask,
+        covariance=task.shared.covariance, rng_seed=task.seed,
+    )
+
+
+def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | None:
+    """`proc` with an amplitude parameter shrunk until its WV is below ``_NEGLIGIBLE * nu_hat``.
+
+    The amplitude is found generically: a scalar parameter whose doubling multiplies the
+    whole WV by the same factor ``2^d`` (d > 0) at every level. None if there is none.
+    """
+    J = nu_hat.size
+    base = proc.wv(J, freq)
+    pos = base > 0
+    if not np.all(np.isfinite(base)) or not pos.any():
+        return None
+    for spec in proc.parameters():
+        value = getattr(proc, spec.name)
+        if spec.size != 1 or value is None or value == 0:
+            continue
+        try:
+            doubled = proc.with_values(**{spec.name: 2.0 * value}).wv(J, freq)
+        except (DomainError, ArithmeticError, ValueError):
+            continue
+        with np.errstate(all="ignore"):
+            deg = np.log2(doubled[pos] / base[pos])
+        if not np.all(np.isfinite(deg)) or deg.min() < 0.5 or np.ptp(deg) > 1e-6:
+            continue
+        factor = (_NEGLIGIBLE * np.min(nu_hat[pos] / base[pos])) ** (1.0 / float(np.mean(deg)))
+        try:
+            return proc.with_values(**{spec.name: value * factor})
+        except DomainError:
+            continue
+    return None
+
+
+def _slots(child: Model, parent: Model) -> tuple[list[Process | None], int] | None:
+    """The child's processes filled with the parent's fitted ones (same structure, in order,
+    the child's fixed values kept); the one slot left (None) is the added process."""
+    pool: dict[tuple, list[Process]] = defaultdict(list)
+    for p in parent.processes:
+        pool[_term_key(p)].append(p)
+    procs: list[Process | None] = []
+    new = None
+    for i, p in enumerate(child.processes):
+        if pool[_term_key(p)]:
+            fitted = pool[_term_key(p)].pop(0)
+            fixed = {k: v for k, v in p.values().items() if v is not None}
+            procs.append(fitted.with_values(**fixed) if fixed else fitted)
+        else:
+            procs.append(None)
+            new = i
+    return (procs, new) if new is not None else None
+
+
+def _guesses(proc: Process, wv: np.ndarray, freq: float) -> list[Process]:
+    """Starting guesses of one added process from a residual WV, spread over time scales."""
+    out = []
+    for i in range(_SCALES):
+        try:
+            out.append(proc.start(wv, freq, index=i, count=_SCALES))
+        except (DomainError, InputError, ArithmeticError, ValueError, NotImplementedError):
+            continue
+    return out
+
+
+def _child_starts(child: Model, parents: list[GMWMResult], nu_hat: np.ndarray, freq: float
+                  ) -> tuple[tuple[dict, ...], tuple[dict, ...]]:
+    """Starts of a child from its fitted parents.
+
+    Returns ``(starts, screen)``: `starts` holds the best parent (smallest objective) padded
+    with a negligible copy of the added process, so that the child does no worse than any
+    parent; `screen` holds the best parents padded with the added process started on the
+    positive part of the residual WV at several time scales.
+    """
+    child = child.bind(freq)
+    ranked = sorted(parents, key=lambda f: (f.objective, f.model.name))
+    starts: list[dict] = []
+    screen: list[dict] = []
+    for i, parent in enumerate(ranked[:_PARENT_STARTS]):
+        slots = _slots(child, parent.model)
+        if slots is None:
+            continue
+        procs, new = slots
+        resid = nu_hat - parent.model.wv(nu_hat.size)
+        resid = np.where(resid > 0, resid, 1e-3 * nu_hat)
+        fresh = child.processes[new]
+        for guess in _guesses(fresh, resid, freq):
+            procs[new] = guess
+            screen.append(Model(tuple(procs), freq).to_spec())
+            if i == 0 and not starts:
+                small = _negligible(guess, nu_hat, freq)
+                if small is not None:
+                    procs[new] = small
+                    starts.append(Model(tuple(procs), freq).to_spec())
+    return tuple(starts), tuple(screen)
+
+
+# --------------------------------------------------------------------------- result
+@attrs.frozen
+class RankingRow:
+    """One candidate in a ranking.
+
+    Attributes
+    ----------
+    model : str
+        Model name (``"2*GM+WN"``).
+    n_params : int
+        Number of estimated parameters.
+    objective : float
+        GMWM objective (eq. 20) with the shared Omega.
+    optimism : float
+        Penalty of the criterion (``criterion - objective``).
+    criterion : float
+        Criterion value (smaller is better).
+    jtest_pvalue : float or None
+        p-value of the J-test of eq. 27 (goodness of fit; None when not computable).
+    identified : bool
+        Whether the fit's parameters are identified (see :func:`stochmod.fit.criteria.identified`);
+        unidentified fits (e.g. a component run to zero amplitude or to an infinite correlation
+        time) rank after all identified ones and are never selected while one is identified.
+    """
+
+    model: str
+    n_params: int
+    objective: float
+    optimism: float
+    criterion: float
+    jtest_pvalue: float | None
+    identified: bool
+
+
+@attrs.frozen(eq=False)
+class SelectionResult:
+    """Result of :func:`select` for one signal.
+
+    Attributes
+    ----------
+    column : str
+        Name of the signal (column).
+    best : GMWMResult
+        The fit of the selected model (smallest criterion).
+    ranking : tuple of RankingRow
+        Every candidate, best first.
+    fits : dict of str to GMWMResult
+        Every fit by model name.
+    graph : networkx.DiGraph
+        Candidates (nodes, with ``model``, ``n_params``, ``objective``, ``criterion``) and
+        nesting edges parent -> child (``added``: the family added).
+    criterion : str
+        Name of the criterion.
+    weighting : str
+        The weighting shared by all fits.
+    empirical : WaveletVariance
+        The empirical wavelet variance of the signal.
+    wv_covariance : ndarray (J, J)
+        The covariance V of the empirical WV (eq. 17) shared by all fits, unit^4.
+    """
+
+    column: str
+    best: GMWMResult
+    ranking: tuple[RankingRow, ...]
+    fits: dict[str, GMWMResult]
+    graph: nx.DiGraph
+    criterion: str
+    weighting: str
+    empirical: WaveletVariance
+    wv_covariance: np.ndarray
+
+    def summary(self) -> str:
+        """The ranking table followed by the selected fit's report."""
+        rows = [[i + 1, r.model, r.n_params, r.objective, r.optimism, r.criterion,
+                 "n/a" if r.jtest_pvalue is None else r.jtest_pvalue,
+                 "yes" if r.identified else "no"]
+                for i, r in enumerate(self.ranking)]
+        title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting, "
+                 f"{len(self.ranking)} candidates, N = {self.empirical.n}, "
+                 f"freq = {self.empirical.freq:g} Hz): selected {self.best.model.name}")
+        table = format_table(["rank", "model", "params", "objective", "optimism", self.criterion,
+                              "J-test p", "identified"], rows, title=title)
+        try:
+            report = self.best.summary()
+        except EstimationError as exc:
+            report = f"no candidate is identified by the wavelet variance: {exc}"
+        return f"{table}\n\n{report}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe summary: selected fit, ranking, nesting edges."""
+        return {
+            "column": self.column,
+            "criterion": self.criterion,
+            "weighting": self.weighting,
+            "selected": self.best.model.name,
+            "best": self.best.to_dict(),
+            "ranking": [attrs.asdict(r) for r in self.ranking],
+            "edges": [[a, b] for a, b in self.graph.edges],
+        }
+
+
+# --------------------------------------------------------------------------- driver
+def _seed(rng: int, column: int, index: int) -> int:
+    return int(np.random.SeedSequence([rng, column, index]).generate_state(1)[0])
+
+
+def _base_seed(rng: Any) -> int:
+    if isinstance(rng, np.random.Generator):
+        return int(rng.integers(2**32))
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0:
+        return int(rng)
+    raise InputError(f"rng must be a non-negative integer seed or a numpy Generator, got {rng!r}")
+
+
+@contextlib.contextmanager
+def _progress(total: int, progress: bool | None, desc: str) -> Iterator[Any]:
+    show = total > _AUTO_PROGRESS if progress is None else bool(progress)
+    bar = None
+    if show:
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            if progress:
+                raise ImportError('progress=True needs tqdm: pip install "stochmod[progress]"') from None
+        else:
+            bar = tqdm(total=total, desc=desc, unit="fit", leave=False)
+    try:
+        yield bar
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+@contextlib.contextmanager
+def _executor(executor: Any) -> Iterator[Any]:
+    if executor is None:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
+            yield pool
+    else:
+        if not callable(getattr(executor, "map", None)):
+            raise InputError(f"executor must be a concurrent.futures.Executor (with .map), got {executor!r}")
+        yield executor
+
+
+def _signals(x: Any, freq: float | None, names: Sequence[str] | None
+             ) -> tuple[np.ndarray, float, list[str], bool]:
+    single = False
+    if isinstance(x, Recording):
+        data, cols = x.data, list(x.columns)
+        freq = x.freq if freq is None else freq
+    else:
+        single = np.ndim(x) == 1
+        data = as_signals(x, name="x", min_length=8)
+        cols = [str(i) for i in range(data.shape[1])]
+    if freq is None:
+        raise InputError("freq (Hz) is required")
+    freq = check_freq(freq)
+    if names is not None:
+        names = [str(n) for n in names]
+        if len(names) != data.shape[1]:
+            raise InputError(f"names has {len(names)} entries but x has {data.shape[1]} column(s)")
+        cols = names
+    for k, c in enumerate(cols):
+        if np.ptp(data[:, k]) == 0:
+            raise InputError(f"column {c!r} of x is constant: it has no noise to model")
+    return data, freq, cols, single
+
+
+def select(
+    x: ArrayLike | Recording,
+    freq: float | None = None,
+    candidates: Sequence[str | Mapping | Model | Process] | None = None,
+    families: Sequence[str] = DEFAULT_FAMILIES,
+    max_counts: Mapping[str, int] | None = None,
+    criterion: str = "wvic",
+    weighting: str = "diagonal",
+    executor: concurrent.futures.Executor | None = None,
+    progress: bool | None = None,
+    rng: int | np.random.Generator = 0,
+    levels: int | None = None,
+    *,
+    names: Sequence[str] | None = None,
+) -> SelectionResult | list[SelectionResult]:
+    """Select a composite model by fitting every candidate with the GMWM and ranking them.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,) or (N, k), or Recording
+        Static error signal(s), unit u (rad/s, m/s^2 ...); a 2-D array holds one axis per
+        column (e.g. 6 IMU axes) and gives one selection per column.
+    freq : float
+        Sampling frequency, Hz (taken from a Recording when it records it).
+    candidates : sequence of spec, optional
+        Model specs (``"2*GM+WN"``, dicts, Models). None: the lattice of `families` with
+        counts 0..`max_counts` (see :func:`candidate_lattice`).
+    families : sequence of str
+        Families of the lattice (default GM, WN, RW, QN, RR).
+    max_counts : mapping, optional
+        Largest count per family (default ``{"GM": 3}``, others 1).
+    criterion : str
+        Registered criterion (``"wvic"``, or a plugin's from the ``stochmod_criteria`` hook).
+    weighting : {"diagonal", "optimal", "identity"}
+        Weighting matrix Omega, the same for every candidate of a signal.
+    executor : concurrent.futures.Executor, optional
+        Runs the fits through ``executor.map`` (thread or process pools, a dask client's
+        ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers.
+    progress : bool, optional
+        Show a tqdm progress bar (None: only when there are more than 8 fits).
+    rng : int or Generator
+        Seed of every fit's multi-start (results reproduce, whatever the executor).
+    levels : int, optional
+        Number of wavelet levels J (default: all the signal allows).
+    names : sequence of str, optional
+        Column names for the results (default: the Recording's, else "0", "1", ...).
+
+    Returns
+    -------
+    SelectionResult, or list of SelectionResult (one per column) for 2-D input
+
+    Raises
+    ------
+    InputError, SpecError
+        Bad signal, empty candidates, unknown family or criterion, too many parameters.
+    """
+    if weighting not in SELECTION_WEIGHTINGS:
+        raise InputError(f"unknown or unusable weighting {weighting!r} for selection; choose one "
+                         f"of {list(SELECTION_WEIGHTINGS)} (one Omega must serve every candidate)")
+    crit = _criteria.get_criterion(criterion)
+    seed = _base_seed(rng)
+    if levels is not None:
+        levels = check_positive_int(levels, name="levels", minimum=1)
+    data, freq, cols, single = _signals(x, freq, names)
+    if max_counts is None and candidates is None:
+        max_counts = {"GM": 3} if "GM" in families else {}
+    models = _as_candidates(candidates, families, max_counts)
+    graph = nested_graph(models)
+    order = {name: i for i, name in enumerate(graph.nodes)}
+    generations = [sorted(g, key=order.get) for g in nx.topological_generations(graph)]
+    n_fits = len(order) * len(cols)
+
+    with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
+        shared = list(pool.map(_prepare, [(data[:, k], freq, levels, weighting)
+                                          for k in range(len(cols))]))
+        J = shared[0].empirical.wv.size
+        for name, node in graph.nodes.items():
+            free = int(node["model"].free_mask().sum())
+            if free == 0:
+                raise SpecError(f"candidate {name} has no free parameter to estimate")
+            if free > J:
+                raise InputError(f"candidate {name} has {free} free parameters but the signal gives "
+                                 f"only {J} wavelet levels")
+        fits: list[dict[str, GMWMResult]] = [{} for _ in cols]
+        for gen in generations:
+            tasks = []
+            for k, sh in enumerate(shared):
+                for name in gen:
+                    model = graph.nodes[name]["model"]
+                    starts, screen = _child_starts(
+                        model, [fits[k][p] for p in graph.predecessors(name)], sh.empirical.wv, freq)
+                    tasks.append(_Task(k, name, model.to_spec(), freq, sh, weighting,
+                                       _seed(seed, k, order[name]), starts, screen))
+            for task, fit in zip(tasks, pool.map(_fit_task, tasks)):
+                fits[task.column][task.name] = fit
+                if bar is not None:
+                    bar.update(1)
+
+    results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
+               for k in range(len(cols))]
+    return results[0] if single else results
+
+
+def _result(column: str, fits: dict[str, GMWMResult], graph: nx.DiGraph, crit: Any,
+            criterion: str, weighting: str, shared: _Column) -> SelectionResult:
+    rows = []
+    g = graph.copy()
+    for name, fit in fits.items():
+        value = float(crit(fit))
+        jt = fit.jtest
+        ok = _criteria.identified(fit)
+        rows.append(RankingRow(name, int(fit.free_mask.sum()), float(fit.objective),
+                               value - float(fit.objective), value,
+                               None if jt is None else float(jt.pvalue), ok))
+        g.nodes[name].update(objective=float(fit.objective), criterion=value, identified=ok)
+    rows.sort(key=lambda r: (not r.identified, r.criterion, r.n_params, r.model))
+    return SelectionResult(column=column, best=fits[rows[0].model], ranking=tuple(rows),
+                           fits=dict(fits), graph=g, criterion=criterion, weighting=weighting,
+                           empirical=shared.empirical, wv_covariance=shared.covariance)
