@@ -49,6 +49,7 @@ from scipy.special import chdtri, ndtri
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import InputError
 from stochmod.reporting import format_number, format_table
+from stochmod.signal.wavelet_variance import _check_alpha
 
 __all__ = [
     "AllanVariance",
@@ -307,6 +308,11 @@ def _explicit_m(taus: ArrayLike, freq: float, m_max: int, kind: str) -> np.ndarr
 
 # ----------------------------------------------------------------------------- variances
 
+def _sumsq(t: np.ndarray) -> float:
+    """Sum of squares by numpy's own SIMD loop (BLAS dot threads stall on a busy machine)."""
+    return float(np.einsum("i,i->", t, t))
+
+
 def _pyramid_sums(y: np.ndarray, m_wanted: np.ndarray, d: int) -> dict[int, float]:
     """Sum of squared (d-1)-th lag-m differences of S_m, for powers of two m (in place)."""
     n = y.size
@@ -331,7 +337,7 @@ def _pyramid_sums(y: np.ndarray, m_wanted: np.ndarray, d: int) -> dict[int, floa
                 if d == 3:
                     u = np.subtract(s[a + 2 * m : b + 2 * m], s[a + m : b + m], out=scratch2[: b - a])
                     t = np.subtract(u, t, out=t)
-                total += float(np.dot(t, t))
+                total += _sumsq(t)
             if m < top:
                 e = min(a + _CHUNK, n_next)
                 np.add(s[a:e], s[a + m : e + m], out=buf[a:e])
@@ -351,27 +357,47 @@ def _phase_sums(y: np.ndarray, m_all: np.ndarray, d: int, overlapping: bool, mod
     c[0] = 0.0
     np.cumsum(y - y.mean(), out=c[1:])  # c = phase / tau0
     out: dict[int, float] = {}
-    s_buf = np.empty(n)
-    t_buf = np.empty(n)
     for m in (int(v) for v in m_all):
         if not overlapping:
             blocks = np.diff(c[::m])  # non-overlapping cluster sums S_m[k m]
             t = np.diff(blocks, n=d - 1)
-            out[m] = float(np.dot(t, t))
+        elif not modified:
+            out[m] = _blocked_sum(c, m, d)
             continue
-        n_s = n - m + 1
-        s = np.subtract(c[m:], c[:-m], out=s_buf[:n_s])  # S_m
-        n_t = n_s - (d - 1) * m
-        t = np.subtract(s[m : m + n_t], s[:n_t], out=t_buf[:n_t])
-        if d == 3:  # second difference: (S[i+2m] - S[i+m]) - (S[i+m] - S[i])
-            t = np.subtract(s[2 * m : 2 * m + n_t] - s[m : m + n_t], t, out=t)
-        if modified:
+        else:
+            s = c[m:] - c[:-m]  # S_m
+            n_t = s.size - (d - 1) * m
+            t = s[m : m + n_t] - s[:n_t]
+            if d == 3:  # second difference: (S[i+2m] - S[i+m]) - (S[i+m] - S[i])
+                t = np.subtract(s[2 * m : 2 * m + n_t] - s[m : m + n_t], t, out=t)
             ct = np.empty(n_t + 1)
             ct[0] = 0.0
             np.cumsum(t, out=ct[1:])
             t = ct[m:] - ct[:-m]  # sums of m consecutive differences
-        out[m] = float(np.dot(t, t))
+        out[m] = _sumsq(t)
     return out
+
+
+def _blocked_sum(c: np.ndarray, m: int, d: int) -> float:
+    """Sum of squared d-th lag-m differences of `c`, block by block (the block stays in cache)."""
+    n_t = c.size - d * m
+    u = np.empty(_CHUNK)
+    v = np.empty(_CHUNK)
+    total = 0.0
+    for a in range(0, n_t, _CHUNK):
+        b = min(a + _CHUNK, n_t)
+        tu, tv = u[: b - a], v[: b - a]
+        # d = 2: (c[i+2m] - c[i+m]) - (c[i+m] - c[i]); d = 3 adds the next difference
+        np.subtract(c[a + 2 * m : b + 2 * m], c[a + m : b + m], out=tu)
+        np.subtract(c[a + m : b + m], c[a:b], out=tv)
+        np.subtract(tu, tv, out=tu)
+        if d == 3:  # (c3 - c2) - (c2 - c1) minus the above: the third difference
+            np.subtract(c[a + 3 * m : b + 3 * m], c[a + 2 * m : b + 2 * m], out=tv)
+            np.subtract(tv, c[a + 2 * m : b + 2 * m], out=tv)
+            np.add(tv, c[a + m : b + m], out=tv)
+            np.subtract(tv, tu, out=tu)
+        total += _sumsq(tu)
+    return total
 
 
 def _is_power_of_two(m: np.ndarray) -> bool:
@@ -666,12 +692,6 @@ def _noise_exponents(noise: int | str, tau: np.ndarray, var: np.ndarray, edf_wn:
             f"noise exponent {value} is not valid for this kind (needs {lowest} <= alpha <= 2)"
         )
     return np.full(tau.size, value, dtype=int)
-
-
-def _check_alpha(alpha: float) -> float:
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0.0 < alpha < 1.0:
-        raise InputError(f"alpha must be a number in (0, 1), got {alpha!r}")
-    return float(alpha)
 
 
 def avar(

@@ -64,16 +64,21 @@ TERMS: dict[str, tuple[int, str, str]] = {
 _BI = math.sqrt(2.0 * math.log(2.0) / math.pi)
 #: coefficient^2 = factor * C where the line is AV = C tau^slope
 _FACTOR = {"Q": 1.0 / 3.0, "N": 1.0, "B": 1.0 / _BI**2, "K": 3.0, "R": 2.0}
-#: Correlation of ln AV estimates one octave apart, by term (simulated: white noise 0.53,
-#: flicker 0.68, random walk 0.88; decays about geometrically with the octave distance).
-_OCTAVE_CORR = {"Q": 0.5, "N": 0.55, "B": 0.7, "K": 0.88, "R": 0.97}
+#: Noise exponent (rate PSD ~ f^alpha) of each term for its EDF. A ramp is deterministic in a
+#: record (its AV, R^2 tau^2 / 2, has no sampling error of its own): the white-noise EDF.
+_NOISE = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": 0}
+#: Correlation of ln AV estimates one octave apart, by term, and its floor (simulated:
+#: white noise 0.53, flicker 0.68, random walk 0.88, decaying about geometrically with the
+#: octave distance; quantization about 0.3 at every distance: all scales share the U_t).
+_OCTAVE_CORR = {"Q": (0.5, 0.3), "N": (0.55, 0.0), "B": (0.7, 0.0), "K": (0.88, 0.0),
+                "R": (0.55, 0.0)}
 #: Averaging time (s) at which the deviation line equals the coefficient (IEEE 952 read-off).
 _READ_TAU = {"Q": math.sqrt(3.0), "N": 1.0, "K": 3.0, "R": math.sqrt(2.0)}
 #: tau / Tc at the maximum of a first-order Gauss-Markov AV, and that maximum / sigma^2.
 #: AV = (2 s^2 Tc / tau) [1 - (Tc / 2 tau)(3 - 4 exp(-tau/Tc) + exp(-2 tau/Tc))]
 #: (IEEE 952 Annex C); the values are checked against a numerical maximisation in the tests.
-GM_PEAK_X = 1.8926178354517893
-GM_PEAK_AV = 0.38113865810245007
+GM_PEAK_X = 1.8926178329250188
+GM_PEAK_AV = 0.38113865810244997
 #: How ``to_model`` turns (B, Tc) into a GM: "quinchia" (default) or "matched".
 GM_CONVENTIONS = ("quinchia", "matched")
 # datasheet units by the physical kind of the signal unit
@@ -415,14 +420,17 @@ def _fit_lines(
     tau: np.ndarray, av: np.ndarray, weights: dict[str, np.ndarray],
     regions: dict[str, np.ndarray], sweeps: int = 4,
 ) -> dict[str, tuple[float, float]]:
-    """Back-fitted fixed-slope lines: name -> (ln C, 1 / sum of weights).
+    """Back-fitted fixed-slope lines: name -> (ln C, variance of ln C).
 
     Each line is fitted on its region to the AV minus the other lines (points where the
     others explain more than 80 % are left out), by weighted least squares on ln AV with the
-    weights ``edf / 2`` scaled by (residual / AV)^2; `sweeps` passes over the lines.
+    weights ``edf / 2`` scaled by (residual / AV)^2; `sweeps` passes over the lines. The
+    variance is that of the weighted mean of correlated values (:func:`_mean_variance`)
+    plus, to first order, what the subtracted lines' own variances pass on.
     """
     lines: dict[str, float] = {}
-    result: dict[str, tuple[float, float]] = {}
+    own: dict[str, tuple[float, float]] = {}
+    leverage: dict[str, dict[str, float]] = {}  # d ln C_name / d ln C_other
     for _ in range(sweeps):
         for name, idx in regions.items():
             t, v = tau[idx], av[idx]
@@ -430,29 +438,38 @@ def _fit_lines(
             keep = resid > 0.2 * v
             if not np.any(keep):
                 lines.pop(name, None)
-                result.pop(name, None)
+                own.pop(name, None)
                 continue
             w = weights[name][keep] * (resid[keep] / v[keep]) ** 2  # 1 / var(ln resid)
             z = np.log(resid[keep]) - TERMS[name][0] * np.log(t[keep])
             ln_c = float(np.sum(w * z) / np.sum(w))
             lines[name] = math.exp(ln_c)
-            result[name] = (ln_c, _mean_variance(w, t[keep], _OCTAVE_CORR[name]))
-    return result
+            own[name] = (ln_c, _mean_variance(w, t[keep], _OCTAVE_CORR[name]))
+            leverage[name] = {
+                o: float(np.sum(w * _others({o: c}, name, t[keep]) / resid[keep]) / np.sum(w))
+                for o, c in lines.items() if o != name
+            }
+    return {
+        name: (ln_c, var + sum(g**2 * own[o][1] for o, g in leverage[name].items() if o in own))
+        for name, (ln_c, var) in own.items()
+    }
 
 
-def _ln_av_covariance(w: np.ndarray, t: np.ndarray, r: float) -> np.ndarray:
+def _ln_av_covariance(w: np.ndarray, t: np.ndarray, corr: tuple[float, float]) -> np.ndarray:
     """Covariance of ln AV values of variances ``1 / w`` at averaging times `t`.
 
-    Correlation ``r^|log2(t_i / t_j)|``: the correlation of overlapping AV estimates falls
-    about geometrically with their distance in octaves (an exponential kernel, so the matrix
-    is positive definite).
+    Correlation ``floor + (1 - floor) r^|log2(t_i / t_j)|`` for ``corr = (r, floor)``: the
+    correlation of overlapping AV estimates falls about geometrically with their distance in
+    octaves, to a floor (a constant plus an exponential kernel: positive definite).
     """
+    r, floor = corr
     octaves = np.log2(t)
     sd = 1.0 / np.sqrt(w)
-    return r ** np.abs(octaves[:, None] - octaves[None, :]) * np.outer(sd, sd)
+    rho = floor + (1.0 - floor) * r ** np.abs(octaves[:, None] - octaves[None, :])
+    return rho * np.outer(sd, sd)
 
 
-def _mean_variance(w: np.ndarray, t: np.ndarray, r: float) -> float:
+def _mean_variance(w: np.ndarray, t: np.ndarray, r: tuple[float, float]) -> float:
     """Variance of the weighted mean ``sum w_i z_i / sum w`` of correlated ln AV values z_i."""
     return float(w @ _ln_av_covariance(w, t, r) @ w) / float(np.sum(w)) ** 2
 
@@ -649,7 +666,9 @@ def allan_reading(
     Interval of a fitted line: ``ln C -+ z sd``, mapped to the coefficient, where ``sd^2`` is
     the variance of the weighted mean of the region's ln AV values, each of variance
     ``2 / edf``, correlated as ``r^(octaves apart)`` with r = 0.55 (N), 0.7 (B), 0.88 (K),
-    0.5 (Q), 0.97 (R) (simulated correlations of overlapping AV estimates one octave apart).
+    0.55 (R: a ramp is deterministic, the white noise around it makes the error) and
+    ``0.3 + 0.7 * 0.5^(octaves apart)`` (Q) (simulated correlations of overlapping AV
+    estimates).
     It covers the sampling error, not the bias from noises the lines do not describe (a
     Gauss-Markov bump read as B, a flat floor under the N region).
     """
@@ -686,13 +705,11 @@ def allan_reading(
     chosen = {k: v for k, v in auto.items() if k in wanted and k not in user}
     chosen.update({k: v for k, v in user.items() if v is not None})
 
-    d, overlapping = 2, kind == "overlapping"
-    weights = {}
-    for name, idx in chosen.items():
-        noise = int(np.clip(-TERMS[name][0] - 1, -2, 2))
-        noise = 2 if noise == 1 else noise
-        edf = greenhall_edf(noise, d, av.m[idx], y.size + 1, overlapping=overlapping)
-        weights[name] = np.asarray(edf, dtype=float) / 2.0
+    weights = {
+        name: np.asarray(greenhall_edf(_NOISE[name], 2, av.m[idx], y.size + 1,
+                                       overlapping=kind == "overlapping"), dtype=float) / 2.0
+        for name, idx in chosen.items()
+    }
 
     fits = _accept(av, weights, chosen, set(user), share, alpha)
     z = float(ndtri(1.0 - alpha / 2.0))
