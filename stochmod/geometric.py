@@ -90,12 +90,28 @@ def _g(x: np.ndarray) -> np.ndarray:
     return out
 
 
+def _two_square(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``x^2`` as an unevaluated sum hi + lo, exactly (Dekker's splitting)."""
+    c = 134217729.0 * x
+    hi = c - (c - x)
+    lo = x - hi
+    sq = x * x
+    return sq, ((hi * hi - sq) + 2.0 * hi * lo) + lo * lo
+
+
 def log1p_complex(w: ArrayLike) -> np.ndarray:
     """``log(1 + w)`` for complex `w`, accurate for small |w| (numpy's complex log1p loses the
-    real part when |1 + w| is close to 1)."""
+    real part when |1 + w| is close to 1).
+
+    The real part is ``log1p(2a + a^2 + b^2) / 2`` (w = a + ib) with the squares formed exactly,
+    so it keeps its relative accuracy even when ``|1 + w| = 1 - 1e-17``.
+    """
     w = np.asarray(w, dtype=np.complex128)
     a, b = w.real, w.imag
-    return 0.5 * np.log1p(2.0 * a + (a * a + b * b)) + 1j * np.arctan2(b, 1.0 + a)
+    bh, bl = _two_square(b)
+    ah, al = _two_square(a)
+    t = (2.0 * a + bh) + (ah + (bl + al))
+    return 0.5 * np.log1p(t) + 1j * np.arctan2(b, 1.0 + a)
 
 
 def haar_kernel_value(t: ArrayLike, m: ArrayLike) -> np.ndarray:

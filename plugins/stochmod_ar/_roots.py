@@ -28,6 +28,9 @@ Accuracy measures:
   singularities allow (cancellation grows as it shrinks) but no larger than the scale 1/rate
   on which the kernel's powers z^rate vary, unless those powers are negligible on the circle.
   Exactly repeated roots are a group like any other.
+- where large residues of opposite signs (or the nearly imaginary residues of a complex pair
+  next to +-1, whose small real part is the answer) still leave a sum to rounding,
+  :meth:`ARRoots.haar_sum_precise` evaluates and sums the residues in double-double.
 """
 
 from __future__ import annotations
@@ -40,6 +43,8 @@ from functools import lru_cache
 import attrs
 import numpy as np
 
+from stochmod_ar._dd import DD, CDD, cdd_mul, dd_add, dd_mul, dd_neg, haar_wv_dd, two_sum
+
 __all__ = ["ARRoots", "ar_roots", "CLUSTER_ETA"]
 
 #: Linkage threshold relative to the distance to the unit circle (see module docstring).
@@ -48,173 +53,51 @@ _ANCHOR_RADIUS = 0.5
 
 KernelFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
-# ----------------------------------------------------------------------------- double-double
-_SPLITTER = 134217729.0  # 2^27 + 1
-
-
-def _two_sum(a: float, b: float) -> tuple[float, float]:
-    s = a + b
-    bb = s - a
-    return s, (a - (s - bb)) + (b - bb)
-
-
-def _split(a: float) -> tuple[float, float]:
-    c = _SPLITTER * a
-    hi = c - (c - a)
-    return hi, a - hi
-
-
-def _two_prod(a: float, b: float) -> tuple[float, float]:
-    p = a * b
-    ah, al = _split(a)
-    bh, bl = _split(b)
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
-
-
-def _dd_add(x: tuple[float, float], y: tuple[float, float]) -> tuple[float, float]:
-    s, e = _two_sum(x[0], y[0])
-    e += x[1] + y[1]
-    return _two_sum(s, e)
-
-
-def _dd_mul(x: tuple[float, float], y: tuple[float, float]) -> tuple[float, float]:
-    p, e = _two_prod(x[0], y[0])
-    e += x[0] * y[1] + x[1] * y[0]
-    return _two_sum(p, e)
-
-
-def _dd_neg(x: tuple[float, float]) -> tuple[float, float]:
-    return -x[0], -x[1]
-
-
-DD = tuple[float, float]
-
-
-def _cdd_mul(a: tuple[DD, DD], b: tuple[DD, DD]) -> tuple[DD, DD]:
-    re = _dd_add(_dd_mul(a[0], b[0]), _dd_neg(_dd_mul(a[1], b[1])))
-    im = _dd_add(_dd_mul(a[0], b[1]), _dd_mul(a[1], b[0]))
-    return re, im
-
-
 def _poly_dd(coef: np.ndarray, z: tuple[DD, DD]) -> complex:
     """``sum coef_i z^(p-i)`` (highest first) in complex double-double, rounded to complex."""
     v: tuple[DD, DD] = ((float(coef[0]), 0.0), (0.0, 0.0))
     for c in coef[1:]:
-        v = _cdd_mul(v, z)
-        v = (_dd_add(v[0], (float(c), 0.0)), v[1])
+        v = cdd_mul(v, z)
+        v = (dd_add(v[0], (float(c), 0.0)), v[1])
     return complex(v[0][0] + v[0][1], v[1][0] + v[1][1])
 
 
-def _refine(coef: np.ndarray, z0: complex, guard: float) -> tuple[DD, DD]:
-    """Newton on P with double-double residuals; returns z as (re, im) double-doubles. A real
-    start stays real. Keeps z0 if an iterate leaves the disc of radius `guard` about it."""
-    real = z0.imag == 0
+def _refine(coef: np.ndarray, z0: complex, guard: float, real: bool) -> tuple[tuple[DD, DD], bool]:
+    """Newton on P with double-double residuals from z0, kept real if `real`; returns z as
+    (re, im) double-doubles and whether it converged (steps below 1e-22 |z|, i.e. at the
+    double-double noise floor after quadratic convergence). Gives up, returning z0, if an
+    iterate leaves the disc of radius `guard` about z0."""
     der_coef = np.polyder(coef)
-    z: tuple[DD, DD] = ((z0.real, 0.0), (z0.imag, 0.0))
-    for _ in range(12):
+    z: tuple[DD, DD] = ((z0.real, 0.0), (0.0 if real else z0.imag, 0.0))
+    small = 0
+    for _ in range(60):
         val = _poly_dd(coef, z)
         zc = complex(z[0][0] + z[0][1], z[1][0] + z[1][1])
+        if val == 0:
+            return z, True
         der = complex(np.polyval(der_coef, zc))
         if der == 0 or not np.isfinite(val):
             break
         step = val / der
         if real:
             step = complex(step.real, 0.0)
-        z = (_dd_add(z[0], (-step.real, 0.0)), _dd_add(z[1], (-step.imag, 0.0)))
+        z = (dd_add(z[0], (-step.real, 0.0)), dd_add(z[1], (-step.imag, 0.0)))
         znew = complex(z[0][0] + z[0][1], z[1][0] + z[1][1])
         if not np.isfinite(znew) or abs(znew - z0) > guard:
-            return (z0.real, 0.0), (z0.imag, 0.0)
-        if abs(step) <= 1e-31 * max(abs(znew), 1e-300):
             break
-    return z
+        if abs(step) <= 1e-31 * max(abs(znew), 1e-300):
+            return z, True
+        small = small + 1 if abs(step) <= 1e-22 * max(abs(znew), 1e-300) else 0
+        if small >= 3:
+            return z, True
+    return ((z0.real, 0.0), (z0.imag, 0.0)), False
 
 
 def _abs2_minus_one(z: tuple[DD, DD]) -> float:
     """``|z|^2 - 1`` from a double-double z, accurate to a few ulps of the result."""
-    acc = _dd_add(_dd_mul(z[0], z[0]), _dd_mul(z[1], z[1]))
-    acc = _dd_add(acc, (-1.0, 0.0))
+    acc = dd_add(dd_mul(z[0], z[0]), dd_mul(z[1], z[1]))
+    acc = dd_add(acc, (-1.0, 0.0))
     return acc[0] + acc[1]
-
-
-def _dd_div(x: DD, y: DD) -> DD:
-    q1 = x[0] / y[0]
-    r = _dd_add(x, _dd_neg(_dd_mul((q1, 0.0), y)))
-    q2 = r[0] / y[0]
-    r = _dd_add(r, _dd_neg(_dd_mul((q2, 0.0), y)))
-    q3 = r[0] / y[0]
-    return _dd_add(_two_sum(q1, q2), (q3, 0.0))
-
-
-class _CDD:
-    """Complex double-double number (about 32 significant digits), for the few residues whose
-    double-precision evaluation cancels."""
-
-    __slots__ = ("re", "im")
-
-    def __init__(self, re: DD | float, im: DD | float = 0.0) -> None:
-        self.re = re if isinstance(re, tuple) else (float(re), 0.0)
-        self.im = im if isinstance(im, tuple) else (float(im), 0.0)
-
-    def __add__(self, o: _CDD) -> _CDD:
-        return _CDD(_dd_add(self.re, o.re), _dd_add(self.im, o.im))
-
-    def __sub__(self, o: _CDD) -> _CDD:
-        return _CDD(_dd_add(self.re, _dd_neg(o.re)), _dd_add(self.im, _dd_neg(o.im)))
-
-    def __mul__(self, o: _CDD) -> _CDD:
-        re, im = _cdd_mul((self.re, self.im), (o.re, o.im))
-        return _CDD(re, im)
-
-    def __truediv__(self, o: _CDD) -> _CDD:
-        den = _dd_add(_dd_mul(o.re, o.re), _dd_mul(o.im, o.im))
-        num = self * _CDD(o.re, _dd_neg(o.im))
-        return _CDD(_dd_div(num.re, den), _dd_div(num.im, den))
-
-    def scale(self, k: float) -> _CDD:
-        """Multiply by a double k (exact for powers of two)."""
-        return _CDD(_dd_mul(self.re, (k, 0.0)), _dd_mul(self.im, (k, 0.0)))
-
-    def __complex__(self) -> complex:
-        return complex(self.re[0] + self.re[1], self.im[0] + self.im[1])
-
-
-def _dd_of(x: Fraction) -> DD:
-    hi = float(x)
-    return hi, float(x - Fraction(hi))
-
-
-@lru_cache(maxsize=256)
-def _haar_series_about_one(m: int, terms: int = 34) -> tuple[DD, ...]:
-    """Coefficients c_k (k = 0..terms-1) of ``W_m(1 + w) = sum c_k w^(k+1)``, exact then rounded
-    to double-double: ``N(z) = m (1 - z^2) - z (1 - z^m)(3 - z^m)`` has a triple zero at z = 1,
-    which exact integer coefficients remove without cancellation."""
-    def coef_n(k: int) -> int:  # coefficient of w^k in N(1 + w)
-        e = lambda j: (3 if j == 0 else 0) - 4 * math.comb(m, j) + math.comb(2 * m, j)  # 3 - 4z^m + z^2m
-        lin = -m * (2 if k == 1 else 1 if k == 2 else 0)
-        return lin - (e(k) + (e(k - 1) if k >= 1 else 0))
-    return tuple(_dd_of(Fraction(coef_n(k + 3), 2 * m * m)) for k in range(terms))
-
-
-def _haar_wv_dd(z: _CDD, w: _CDD, anchor: float, m: int) -> _CDD:
-    """``W_m(z)`` in double-double, ``z = anchor + w``. About z = 1 with ``m |w| < 0.5``: the
-    exact series in w; else the textbook form ``[m (1 - z^2) - z (1 - z^m)(3 - z^m)] /
-    (2 m^2 (1 - z)^2)`` (m a power of two), which then keeps at least ~25 of its 32 digits."""
-    if anchor > 0 and m * abs(complex(w)) < 0.5:
-        coefs = _haar_series_about_one(m)
-        acc = _CDD(coefs[-1])
-        for c in coefs[-2::-1]:
-            acc = acc * w + _CDD(c)
-        return acc * w
-    one, three = _CDD(1.0), _CDD(3.0)
-    zm = z
-    k = 1
-    while k < m:
-        zm = zm * zm
-        k *= 2
-    a = one - zm
-    omz = one - z
-    num = (one - z * z).scale(float(m)) - z * a * (three - zm)
-    return num / (omz * omz).scale(2.0 * m * m)
 
 
 # ----------------------------------------------------------------------------- decomposition
@@ -327,18 +210,18 @@ class ARRoots:
         val = kernel(self.sign[[k]], self.u[[k]], cols)[0]
         return val * (zk ** (self.p - 1) / den)
 
-    def haar_residue_dd(self, k: int, m: int) -> _CDD:
+    def haar_residue_dd(self, k: int, m: int) -> CDD:
         """Residue at root k of ``z^(p-1) W_m(z) / (P(z) P*(z))`` in double-double arithmetic."""
-        zk = _CDD(*self.zdd[k])
-        den = _CDD(1.0)
+        zk = CDD(*self.zdd[k])
+        den = CDD(1.0)
         for l in range(self.p):
-            zl = _CDD(*self.zdd[l])
+            zl = CDD(*self.zdd[l])
             if l != k:
                 den = den * (zk - zl)
-            den = den * (_CDD(1.0) - zk * zl)
+            den = den * (CDD(1.0) - zk * zl)
         re, im = self.zdd[k]
-        wk = _CDD(_dd_add(re, (-float(self.anchor[k]), 0.0)), im)
-        num = _haar_wv_dd(zk, wk, float(self.anchor[k]), m)
+        wk = CDD(dd_add(re, (-float(self.anchor[k]), 0.0)), im)
+        num = haar_wv_dd(zk, wk, float(self.anchor[k]), m)
         for _ in range(self.p - 1):
             num = num * zk
         return num / den
@@ -352,7 +235,7 @@ class ARRoots:
         total = np.zeros(m.size)
         singles = [g[0] for g in self.groups if len(g) == 1 and self.partner[g[0]] >= g[0]]
         for i, mi in enumerate(m):  # sum the residues in double-double, round once
-            acc = _CDD(0.0)
+            acc = CDD(0.0)
             for k in singles:
                 res = self.haar_residue_dd(k, int(mi))
                 acc = acc + (res if self.partner[k] == k else res.scale(2.0))
@@ -403,27 +286,46 @@ class ARRoots:
         return total.real, magnitude
 
     def _group_sum(self, gi: int, kernel: KernelFn, rates: np.ndarray, smooth: bool) -> np.ndarray:
-        """A group's summed residues: contour integrals (radius chosen per column), or plain
-        residues where the kernel varies fast enough across the group that they do not cancel."""
+        """A group's summed residues by contour integrals, radius and nodes chosen per column.
+
+        The radius is the largest admissible (see :func:`_contour_geometry`) where the
+        kernel's powers z^rate vary little over it, else ``max(4 spread, 1/rate)``; for a smooth
+        kernel, also the largest where those powers are negligible near the unit circle. The
+        nodes make the trapezoidal error ~1e-19: geometric in the ratios of the radius to the
+        group's spread and to the other singularities, and enough (``e rate radius / reach``)
+        to resolve the powers on the circle unless they are below 1e-25 there. Beyond 8192
+        nodes, distinct roots fall back to plain residues.
+        """
         group = self.groups[gi]
         every = np.arange(rates.size)
         try:
             centre, spread, rho_max, d_out = _contour_geometry(self.z, self.w[list(group)], group)
         except ValueError:  # not separable from the other singularities: plain residues (rare)
             return self._residues(group, kernel, every)
-        to_circle = 1.0 - abs(self.anchor[group[0]] + centre)
-        wide = (rates * rho_max <= 1.0) | (smooth & (rates * to_circle >= 400.0))
-        plain = ~wide & (rates * spread >= 0.25)
-        rho = np.where(wide, rho_max, np.maximum(4.0 * spread, 1.0 / rates))
+        s = float(self.anchor[group[0]])
+        zc = abs(s + centre)
+        members = self.w[list(group)]
+        min_sep = min(abs(a - b) for i, a in enumerate(members) for b in members[i + 1 :])
+        rho = np.where(rates * rho_max <= 1.0, rho_max,
+                       np.minimum(rho_max, np.maximum(4.0 * spread, 1.0 / rates)))
+        if smooth:
+            rho = np.where(rates * (1.0 - zc) >= 400.0, rho_max, rho)
+        reach = zc + rho
+        q = np.maximum(spread / rho, rho / d_out)
+        with np.errstate(divide="ignore"):
+            n_geo = np.ceil(-43.0 / np.log(np.maximum(q, 1e-300)))
+            negligible = rates * np.log(reach) < -58.0
+        n_pow = np.where(negligible & smooth, 0.0, 2.72 * rates * rho / reach + 32.0)
+        nodes = np.maximum(32, np.maximum(n_geo, n_pow))
+        plain = (nodes > 8192) & (min_sep > 0)
+        nodes = np.minimum(nodes, 8192).astype(int)
+        nodes += (-nodes) % 4
         out = np.zeros(rates.size, dtype=np.complex128)
         if np.any(plain):
             out[plain] = self._residues(group, kernel, every[plain])
-        for r in np.unique(rho[~plain]):
-            cols = every[~plain & (rho == r)]
-            q = max(spread / r, r / d_out)
-            nodes = int(min(4096, max(32, math.ceil(-43.0 / math.log(q)) if q > 0 else 32)))
-            nodes += (-nodes) % 4
-            offset = r * np.exp(2j * np.pi * np.arange(nodes) / nodes)
+        for r, n in set(zip(rho[~plain], nodes[~plain])):
+            cols = every[~plain & (rho == r) & (nodes == n)]
+            offset = r * np.exp(2j * np.pi * np.arange(n) / n)
             vals = self._contour_values(gi, centre + offset, kernel, cols)
             out[cols] = (vals * offset[:, None]).mean(axis=0)
         return out
@@ -529,6 +431,40 @@ def _anchor_of(z: complex) -> int:
     return 0
 
 
+def _refined_roots(coef: np.ndarray, z0: np.ndarray) -> list[tuple[DD, DD]]:
+    """Each root refined in double-double. A real root whose real Newton iteration does not
+    converge belongs to a near-double pair that np.roots split along the real axis although
+    it is complex (or vice versa): it is retried, with its nearest real neighbour, from the
+    complex point between them."""
+    p = z0.size
+    out, ok = [], []
+    for k in range(p):
+        dist = [abs(z0[k] - z0[l]) for l in range(p) if l != k]
+        zk, conv = _refine(coef, complex(z0[k]), 0.25 * min(dist + [2.0]) + 1e-300, z0[k].imag == 0)
+        out.append(zk)
+        ok.append(conv)
+    stuck = [k for k in range(p) if not ok[k] and z0[k].imag == 0]
+    while stuck:
+        k = stuck.pop()
+        reals = [l for l in range(p) if l != k and z0[l].imag == 0 and (l in stuck or not ok[l])]
+        if not reals:
+            continue
+        l = min(reals, key=lambda l: abs(z0[l] - z0[k]))
+        sep = abs(z0[l] - z0[k])
+        start = complex(0.5 * (z0[k].real + z0[l].real), max(0.5 * sep, 1e-12 * abs(z0[k])))
+        zc, conv = _refine(coef, start, 10.0 * sep + 1e-15, False)
+        if conv and zc[1][0] != 0:
+            im = zc[1] if zc[1][0] > 0 else dd_neg(zc[1])
+            out[k], out[l] = (zc[0], im), (zc[0], dd_neg(im))
+            if l in stuck:
+                stuck.remove(l)
+    return out
+
+
+def _as_complex(z: tuple[DD, DD]) -> complex:
+    return complex(z[0][0] + z[0][1], z[1][0] + z[1][1])
+
+
 @lru_cache(maxsize=512)
 def ar_roots(phi: tuple[float, ...]) -> ARRoots:
     """Refined, anchored and grouped roots of ``z^p - phi_1 z^(p-1) - ... - phi_p``."""
@@ -536,39 +472,45 @@ def ar_roots(phi: tuple[float, ...]) -> ARRoots:
     z0 = np.roots(coef).astype(np.complex128)
     z0 = np.where(np.abs(z0.imag) <= 4 * np.finfo(float).eps * np.abs(z0), z0.real + 0j, z0)
     p = z0.size
-    groups = _separated(z0, _groups(z0))
+    zdd = _refined_roots(coef, z0)
+    z = np.array([_as_complex(zk) for zk in zdd])
+    groups = _separated(z, _groups(z))
     anchor = np.zeros(p)
-    zdd: list[tuple[DD, DD]] = [((z.real, 0.0), (z.imag, 0.0)) for z in z0]
     for g in groups:
-        a = _anchor_of(complex(np.mean(z0[g])))
-        anchor[g] = a
-        if len(g) == 1:
-            k = g[0]
-            dist = [abs(z0[k] - z0[l]) for l in range(p) if l != k]
-            zdd[k] = _refine(coef, complex(z0[k]), 0.25 * min(dist + [2.0]))
-    # conjugate pairs: mirror the refined root with positive imaginary part
-    partner = np.arange(p)
-    for k in range(p):
-        if z0[k].imag > 0:
-            l = min((l for l in range(p) if l != k and z0[l].imag < 0),
-                    key=lambda l: abs(z0[l] - np.conj(z0[k])))
-            partner[k], partner[l] = l, k
-            re, im = zdd[k]
-            zdd[l] = (re, _dd_neg(im))
+        anchor[g] = _anchor_of(complex(np.mean(z[g])))
     w = np.array([complex((re[0] - a) + re[1], im[0] + im[1]) for (re, im), a in zip(zdd, anchor)])
-    abs2m1 = np.array([_abs2_minus_one(zk) for zk in zdd])
-    sign, u = ARRoots.sign_log(anchor, w)
-    nonzero = (w != 0) | (anchor != 0)
-    with np.errstate(divide="ignore"):  # |z|^2 underflowing to 0 gives u = inf, i.e. z = 0
-        u = np.where(nonzero, -0.5 * np.log1p(np.where(nonzero, abs2m1, 0.0)) + 1j * u.imag, u)
+    # groups: the factor polynomial from the exact Taylor coefficients, the members its roots
     taylor = {a: _taylor_coefficients(phi, a) for a in (-1, 0, 1)}
-    factors = []
+    factors: list[np.ndarray | None] = []
     for g in groups:
         if len(g) == 1:
             factors.append(None)
             continue
         a = int(anchor[g[0]])
         others = [complex((anchor[l] - a) + w[l]) for l in range(p) if l not in g]
-        factors.append(_group_factor(taylor[a], others, len(g)))
+        c = _group_factor(taylor[a], others, len(g))
+        factors.append(c)
+        members = list(np.roots(c[::-1]))
+        for k in g:  # each member takes the nearest remaining root of its factor
+            wk = members.pop(int(np.argmin(np.abs(np.asarray(members) - w[k]))))
+            w[k] = wk
+            zdd[k] = (two_sum(a, wk.real), (wk.imag, 0.0))
+    # conjugate pairs: the root with positive imaginary part, and its mirror image
+    partner = np.arange(p)
+    for k in np.argsort(-w.imag):
+        if w[k].imag > 0 and partner[k] == k:
+            cands = [l for l in range(p) if l != k and w[l].imag < 0 and partner[l] == l]
+            if cands:
+                l = min(cands, key=lambda l: abs(w[l] - np.conj(w[k])))
+                partner[k], partner[l] = l, k
+                w[l] = np.conj(w[k])
+                zdd[l] = (zdd[k][0], dd_neg(zdd[k][1]))
+    abs2m1 = np.array([_abs2_minus_one(zk) for zk in zdd])
+    sign, u = ARRoots.sign_log(anchor, w)
+    nonzero = (w != 0) | (anchor != 0)
+    # near the unit circle, Re u = -log|z| from the double-double |z|^2 - 1 (the log of a
+    # double |z| would leave it ~eps absolute); elsewhere the log of z itself is accurate
+    near = nonzero & (abs2m1 > -0.5)
+    u = np.where(near, -0.5 * np.log1p(np.where(near, abs2m1, 0.0)) + 1j * u.imag, u)
     return ARRoots(tuple(float(c) for c in phi), anchor, w, sign, u, abs2m1, partner,
                    tuple(tuple(g) for g in groups), tuple(factors), tuple(zdd))
