@@ -18,8 +18,7 @@ from scipy.optimize import least_squares, linprog
 from stochmod.errors import EstimationError
 from stochmod.reporting import format_table
 
-from ._ar1 import ar1_haar_wv
-from ._mixture import D_HI, band, unit_wv
+from ._mixture import D_HI, ar1_wv, band, unit_wv
 
 __all__ = ["GMApproximation", "default_levels", "fit_unit_gms"]
 
@@ -56,10 +55,10 @@ def fit_unit_gms(nu_c: float, n_gm: int, levels: int) -> tuple[np.ndarray, np.nd
     if width == 0.0:  # empty band: the process is exactly its corner GM
         d = d_lo * 2.0 ** np.arange(n_gm)
         w = np.r_[1.0, np.zeros(n_gm - 1)]
-        return d, w, ar1_haar_wv(d_lo, m) / target - 1.0
+        return d, w, ar1_wv(d_lo, m) / target - 1.0
 
     def design(log_d: np.ndarray) -> np.ndarray:
-        return ar1_haar_wv(np.exp(log_d)[None, :], m[:, None]) / target[:, None]
+        return ar1_wv(np.exp(log_d)[None, :], m[:, None]) / target[:, None]
 
     a = math.log(d_lo)
     s0 = a + width * np.linspace(0.02, 0.92, n_gm) if n_gm > 1 else np.array([a])
@@ -81,7 +80,7 @@ def fit_unit_gms(nu_c: float, n_gm: int, levels: int) -> tuple[np.ndarray, np.nd
         w = polished[0]
     order = np.argsort(log_d)
     d, w = np.exp(log_d[order]), w[order]
-    return d, w, (ar1_haar_wv(d[None, :], m[:, None]) @ w) / target - 1.0
+    return d, w, (ar1_wv(d[None, :], m[:, None]) @ w) / target - 1.0
 
 
 @attrs.frozen

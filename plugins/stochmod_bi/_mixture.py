@@ -7,6 +7,8 @@ of ``ln d`` on ``[d_lo, d_hi]`` with ``d_lo = 2 pi nu_c`` (``nu_c = fc / freq``)
 ``B^2 / pi``. Every quantity is an integral over ``s = ln d`` of an AR(1) quantity, done by
 composite Gauss-Legendre quadrature (the integrands are analytic in a strip of half-width
 about pi/2 around the real s axis, so 12-point panels of width 1/2 reach rounding level).
+The AR(1) Haar WV per unit variance is :func:`stochmod.geometric.haar_wv_geometric` at
+``log z = -d`` (free of cancellation for slow components).
 """
 
 from __future__ import annotations
@@ -17,16 +19,34 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import exp1
 
-from ._ar1 import ar1_haar_wv, ar1_haar_wv_dd, ar1_spectrum
+from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_dlog
 
-__all__ = ["D_HI", "band", "mixture_nodes", "unit_wv", "unit_wv_d_lo", "unit_spectrum",
-           "unit_autocovariance"]
+__all__ = ["D_HI", "band", "mixture_nodes", "ar1_wv", "ar1_spectrum", "unit_wv", "unit_wv_d_lo",
+           "unit_spectrum", "unit_autocovariance"]
 
 #: Upper rate of the band, radians per sample: a corner at the Nyquist frequency.
 D_HI = math.pi
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
 _PANEL = 0.5
+
+
+def ar1_wv(d: ArrayLike, m: ArrayLike) -> np.ndarray:
+    """Haar WV of a unit-variance AR(1) ``X_t = e^{-d} X_{t-1} + e_t`` at half-width `m`."""
+    return haar_wv_geometric(-np.asarray(d, dtype=np.float64), m)
+
+
+def ar1_spectrum(d: ArrayLike, theta: ArrayLike) -> np.ndarray:
+    """Two-sided spectrum per cycle/sample of a unit-variance AR(1) at ``theta = 2 pi f / freq``.
+
+    ``(1 - q^2) / |1 - q e^{-i theta}|^2`` with ``q = e^{-d}``, written
+    ``u (1 + q) / (u^2 + 4 q sin^2(theta/2))`` with ``u = 1 - q``: stable for small and large
+    ``d`` (its integral over a cycle is 1).
+    """
+    d, theta = np.broadcast_arrays(np.asarray(d, dtype=np.float64),
+                                   np.asarray(theta, dtype=np.float64))
+    u, q = -np.expm1(-d), np.exp(-d)
+    return u * (1 + q) / (u * u + 4 * q * np.sin(0.5 * theta) ** 2)
 
 
 def band(nu_c: float) -> tuple[float, float]:
@@ -52,7 +72,7 @@ def unit_wv(nu_c: float, levels: int) -> np.ndarray:
     m = 2.0 ** np.arange(levels)[:, None]
     d, w = mixture_nodes(nu_c)
     d_lo = band(nu_c)[0]
-    return ar1_haar_wv(d[None, :], m) @ w + ar1_haar_wv(d_lo, m[:, 0])
+    return ar1_wv(d[None, :], m) @ w + ar1_wv(d_lo, m[:, 0])
 
 
 def unit_wv_d_lo(nu_c: float, levels: int) -> np.ndarray:
@@ -63,8 +83,8 @@ def unit_wv_d_lo(nu_c: float, levels: int) -> np.ndarray:
     """
     m = 2.0 ** np.arange(levels)
     d_lo, width = band(nu_c)
-    edge = ar1_haar_wv(d_lo, m) / d_lo if width > 0 else 0.0
-    return ar1_haar_wv_dd(d_lo, m) - edge
+    edge = ar1_wv(d_lo, m) / d_lo if width > 0 else 0.0
+    return -haar_wv_geometric_dlog(-d_lo, m) - edge
 
 
 def unit_spectrum(nu: ArrayLike, nu_c: float, *, chunk: int = 4096) -> np.ndarray:
