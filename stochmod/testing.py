@@ -63,7 +63,7 @@ from scipy import integrate
 
 from stochmod._validation import check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError
-from stochmod.params import DOMAINS, get_domain
+from stochmod.params import get_domain, pacf_to_ar
 from stochmod.process import Process, _overrides, as_generator, simulate_block
 from stochmod.reporting import format_number, format_table
 from stochmod.statespace import StateSpaceBlock, compose_steps
@@ -211,7 +211,6 @@ def strategy_for(process: Process | type[Process], *, freq: float = 100.0, decad
     else:
         base = process
     base = base.freed()
-    from stochmod.params import pacf_to_ar
 
     def scalar(domain: str) -> Any:
         if domain == "positive":
