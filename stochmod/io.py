@@ -89,15 +89,9 @@ def _read_csv(path: Path) -> tuple[np.ndarray, tuple[str, ...]]:
     rows = list(csv.reader(_io.StringIO("\n".join(lines)), delimiter=delimiter, skipinitialspace=True))
     rows = [[c for c in row if c != ""] if delimiter == " " else row for row in rows]
 
-    def numeric(row: list[str]) -> bool:
-        try:
-            [float(c) for c in row]
-        except ValueError:
-            return False
-        return True
-
     header: tuple[str, ...] | None = None
-    if not numeric(rows[0]):
+    # a header is a first row with no numeric cell: a typo in the first data row stays an error
+    if not any(_is_float(c) for c in rows[0]):
         header = tuple(c.strip() for c in rows[0])
         rows = rows[1:]
     if not rows:

@@ -33,7 +33,7 @@ def pacf_to_ar(r: np.ndarray) -> np.ndarray:
 
 def ar_to_pacf(phi: np.ndarray) -> np.ndarray:
     """Inverse of :func:`pacf_to_ar`; raises :class:`DomainError` if `phi` is not stationary."""
-    phi = np.asarray(phi, dtype=np.float64).copy()
+    phi = np.atleast_1d(np.asarray(phi, dtype=np.float64)).reshape(-1).copy()
     p = phi.size
     r = np.empty(p)
     for k in range(p, 0, -1):
@@ -64,6 +64,10 @@ class Domain:
         ``contains(value) -> bool``.
     to_unconstrained, from_unconstrained : callable
         The bijection and its inverse (elementwise, or on the whole vector).
+    elementwise_derivative : callable or None
+        ``d value / d theta`` elementwise, when the map acts elementwise.
+    vector : bool
+        Whether values are always sequences, even of length one (AR coefficients).
     """
 
     name: str
@@ -72,6 +76,7 @@ class Domain:
     to_unconstrained: Callable[[np.ndarray], np.ndarray]
     from_unconstrained: Callable[[np.ndarray], np.ndarray]
     elementwise_derivative: Callable[[np.ndarray], np.ndarray] | None = None
+    vector: bool = False
 
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         """Jacobian ``d value / d theta`` of :attr:`from_unconstrained` at `theta` (square matrix)."""
@@ -95,6 +100,9 @@ def _all(pred: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], boo
         return bool(np.all(np.isfinite(v)) and np.all(pred(v)))
 
     return check
+
+
+_PACF_MAX = 1.0 - 2.0**-40
 
 
 def _is_stationary(phi: np.ndarray) -> bool:
@@ -129,7 +137,9 @@ DOMAINS: dict[str, Domain] = {
             "stationary_ar", "coefficients of a stationary AR(p) (all roots outside the unit circle)",
             _is_stationary,
             lambda v: np.arctanh(ar_to_pacf(v)),
-            lambda t: pacf_to_ar(np.tanh(t)),
+            # keep |pacf| < 1 strictly: tanh rounds to +-1 for |t| > 19
+            lambda t: pacf_to_ar(np.clip(np.tanh(t), -_PACF_MAX, _PACF_MAX)),
+            vector=True,
         ),
     )
 }

@@ -88,7 +88,7 @@ class Process:
             value = getattr(self, spec.name)
             if value is not None:
                 checked = spec.check(value, self.family)
-                if spec.size > 1 or isinstance(value, (list, tuple, np.ndarray)) and np.ndim(value):
+                if spec.size > 1 or get_domain(spec.domain).vector:
                     checked = tuple(float(c) for c in np.atleast_1d(checked))
                 object.__setattr__(self, spec.name, checked)
 

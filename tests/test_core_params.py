@@ -172,3 +172,10 @@ def test_unknown_domains() -> None:
         get_domain("negative")
     with pytest.raises(ValueError, match="domain"):
         Parameter("x", "negative", "u")
+
+
+def test_stationary_domain_accepts_a_scalar_coefficient_and_saturated_pacf_stays_stationary():
+    dom = get_domain("stationary_ar")
+    assert dom.contains(np.array(0.5)) and not dom.contains(np.array(1.0))
+    phi = dom.from_unconstrained(np.array([40.0, -40.0]))
+    assert np.all(np.abs(np.roots(np.r_[1.0, -phi])) < 1.0)

@@ -156,3 +156,10 @@ def test_bad_binary_files(tmp_path: Path) -> None:
     for name, message in cases.items():
         with pytest.raises(InputError, match=message):
             read_recording(tmp_path / name)
+
+
+def test_first_row_with_a_typo_is_an_error_not_a_header(tmp_path):
+    path = tmp_path / "typo.csv"
+    path.write_text("1.0,2x\n3.0,4.0\n")
+    with pytest.raises(InputError, match="2x"):
+        read_recording(path)
