@@ -50,6 +50,7 @@ __all__ = [
     "haar_wv_geometric",
     "haar_wv_geometric_dlog",
     "haar_wv_geometric_parts",
+    "haar_wv_positive",
     "log1p_complex",
 ]
 
@@ -272,3 +273,30 @@ def haar_wv_geometric_parts(log_z: ArrayLike, m: ArrayLike, *, sign: ArrayLike =
     if complex_out:
         return lead, rest
     return lead.real.copy(), rest.real.copy()
+
+
+def haar_wv_positive(u: float, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``W_m(e^{-u})`` and ``dW/du`` for one real ``u > 0`` over many m: the fast path of a
+    first-order Gauss-Markov process inside an optimiser (same formulas as
+    :func:`haar_wv_geometric` and :func:`haar_wv_geometric_dlog`, without the complex and
+    sign machinery). Falls back to them when ``z = e^{-u} < 1e-3``.
+
+    Parameters
+    ----------
+    u : float
+        ``-log z > 0`` (``beta / freq`` for a GM process).
+    m : ndarray of float
+        Samples per half Haar filter (``2^(j-1)``).
+    """
+    if not u > 0 or not math.isfinite(u):
+        raise InputError(f"u must be a positive finite number, got {u!r}")
+    if u > -_SMALL_Z_LOG:
+        return haar_wv_geometric(-u, m), -haar_wv_geometric_dlog(-u, m)
+    m = np.asarray(m, dtype=np.float64)
+    x = m * u
+    sh = math.sinh(0.5 * u)
+    smi = float(_sinh_minus_id(np.array([u]))[0])
+    w = (2.0 * m * smi + _g(x)) / (8.0 * m * m * sh * sh)
+    a = -np.expm1(-x)
+    dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / math.tanh(0.5 * u)
+    return w, dw

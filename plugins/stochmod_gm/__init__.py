@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError
-from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_dlog
+from stochmod.geometric import haar_wv_positive
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -146,16 +146,14 @@ class GM(Process):
             return super().wv(levels, freq, wavelet)
         self._require_values()
         u = self.beta / check_freq(freq)
-        return self.sigma2 * haar_wv_geometric(-u, _levels_m(levels))
+        return self.sigma2 * haar_wv_positive(u, _levels_m(levels))[0]
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """Columns ``d wv / d beta`` (u^2 s) and ``d wv / d sigma2`` (dimensionless), shape (levels, 2)."""
         self._require_values()
         freq = check_freq(freq)
-        u = self.beta / freq
-        m = _levels_m(levels)
-        d_beta = -self.sigma2 / freq * haar_wv_geometric_dlog(-u, m)
-        return np.column_stack([d_beta, haar_wv_geometric(-u, m)])
+        w, dw_du = haar_wv_positive(self.beta / freq, _levels_m(levels))
+        return np.column_stack([self.sigma2 / freq * dw_du, w])
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD of the sampled process, u^2/Hz, at `f` Hz in (-freq/2, freq/2]."""
@@ -228,7 +226,7 @@ class GM(Process):
         m = 2.0 ** (j - 1)
         u = PEAK_X / m
         beta = u * freq
-        sigma2 = level_wv / float(haar_wv_geometric(-u, m))
+        sigma2 = level_wv / float(haar_wv_positive(u, np.array([m]))[0][0])
         if rng is not None:
             beta *= float(np.exp(rng.normal(0.0, 0.5)))
             sigma2 *= float(np.exp(rng.normal(0.0, 0.5)))
