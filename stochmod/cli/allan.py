@@ -79,8 +79,9 @@ def plot_reading(
     """Save a log-log Allan deviation plot: curves with interval bars and the fitted lines.
 
     Like Figs. 15-16 of Quinchia et al. (2013): one curve per column (the `tables` when given,
-    else each reading's own AV), vertical bars for the intervals, and dashed lines of the
-    identified slopes over (a little beyond) their tau ranges, labelled with their values.
+    else each reading's own AV), vertical bars for the intervals, dashed lines of the
+    identified slopes over (a little beyond) their tau ranges, labelled with their values,
+    and their sum (dotted), the curve the reading explains.
 
     Raises
     ------
@@ -106,6 +107,10 @@ def plot_reading(
         err = _bars(av)
         ax.errorbar(av.tau, dev, yerr=err, fmt="o-", ms=3, lw=1, color=color, capsize=2,
                     label=f"{name} ({av.kind})")
+        if any(c is not None for c in reading.coefficients.values()):
+            t = np.geomspace(av.tau[0], av.tau[-1], 100)
+            ax.plot(t, np.sqrt(reading.line(t)), ":", color=color, lw=1.0,
+                    label=f"{name}: sum of the lines")
         for coef_name, c in reading.coefficients.items():
             if c is None:
                 continue

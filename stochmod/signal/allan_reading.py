@@ -15,13 +15,15 @@ R     rate ramp                   +2          +1           R^2 tau^2 / 2        
 
 :func:`allan_reading` computes the overlapping AV on a dense log grid, finds the maximal
 contiguous tau ranges where the local log-log slope stays within a tolerance of one of the
-slopes above, and fits a line of that fixed slope in each range by weighted least squares in
-log space (weights: the Greenhall EDF for that noise type), after subtracting the other
-identified lines (a few back-fitting sweeps). A term is kept only if the share of the curve
-its line explains over its range is significantly (one-sided, level alpha) above
-``min_share``: the valley between a white-noise and a random-walk line is flat but holds no
-bias instability, and the noisy long-tau tail shows slopes that no noise made. A coefficient
-is reported only where the curve shows it, never invented.
+slopes above (joined across short noisy excursions; the widest range per slope), and fits a
+line of that fixed slope in each range by weighted least squares in log space (weights: the
+Greenhall EDF for that noise type), after subtracting the other identified lines (a few
+back-fitting sweeps). A term is kept only if the share of the curve its line explains over
+its range is significantly (one-sided, level alpha) above ``min_share``, and B only if a flat
+line fits its range significantly better than a valley between a white-noise and a
+random-walk line (whose bottom is flat but holds no bias instability). A coefficient is
+reported only where the curve shows it, never invented. The method, its checks and its
+Monte Carlo spread: docs/allan.md.
 """
 
 from __future__ import annotations
@@ -151,10 +153,10 @@ class AllanReading:
         Quantization (u*s), white noise (u*sqrt(s)), bias instability (u), random walk
         (u/sqrt(s)), rate ramp (u/s); None where the curve shows no such region.
     Tc : float or None
-        Averaging time (s) of the flat (B) region's stationary point: where its local slope is
-        closest to zero, i.e. the minimum of the AV curve when the flat region is its floor.
-        Quinchia et al. (2013, Table 5) take this tau as the correlation time of the
-        first-order Gauss-Markov model of the bias instability. None without a B region.
+        Averaging time (s) of the minimum of the AV curve within the flat (B) region. Quinchia
+        et al. (2013, Sec. 5.5 and Table 5) read the correlation time of the first-order
+        Gauss-Markov model of the bias instability off the flat segment of the curve and use
+        it as is (beta = 1 / Tc, their eq. 1). None without a B region.
     avar : AllanVariance
         The overlapping Allan variance the reading used (dense log grid).
     slopes : ndarray
@@ -254,8 +256,8 @@ class AllanReading:
 
         "quinchia" GM (Quinchia et al. 2013 eqs. 19-20, 27-30): beta = 1 / Tc and
         sigma_GM = 0.664 B (eq. 29), i.e. the flat deviation level. "matched": the GM whose
-        AV peak (at tau = 1.8926 Tc, value 0.3811 sigma^2) sits on the flat region's level at
-        its stationary point: beta = 1.8926 / Tc, sigma^2 = 0.4413 B^2 / 0.3811.
+        AV peak (at tau = 1.8926 / beta, value 0.3811 sigma^2) sits on the flat level at Tc:
+        beta = 1.8926 / Tc, sigma^2 = 0.4413 B^2 / 0.3811.
 
         Raises
         ------
@@ -320,7 +322,7 @@ def _to_datasheet(units_mod: Any, value: float, unit: str | None, name: str, ds_
 
 
 _NONE = 99  # label of a point matching no slope
-_MAX_GAP = 0.3  # decades of a short excursion that does not split a region
+_MAX_GAP = 0.5  # decades of a short excursion that does not split a region
 
 
 def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
@@ -338,7 +340,7 @@ def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
 def _merged_runs(
     labels: np.ndarray, slopes: np.ndarray, lt: np.ndarray, tol: float
 ) -> list[tuple[int, int, int]]:
-    """Runs of one slope joined across gaps of at most 0.3 decade whose slopes stay within
+    """Runs of one slope joined across gaps of at most 0.5 decade whose slopes stay within
     twice the tolerance (a noisy excursion, not another noise)."""
     merged: list[tuple[int, int, int]] = []
     for s, i0, i1 in _runs(labels):
@@ -405,9 +407,9 @@ def _user_regions(regions: Mapping[str, Any], tau: np.ndarray) -> dict[str, np.n
 def _others(lines: dict[str, float], name: str, t: np.ndarray) -> np.ndarray:
     """Sum of the lines other than `name` at the averaging times `t`.
 
-    The flat line (B) is left out of the other terms' sums: a bias instability floor has
-    no known extent and a Gauss-Markov bump read as B vanishes on both sides of its range,
-    so it is only ever subtracted inside its own fit's complement, never from N, K, Q, R.
+    The flat line (B) is left out of the sums for N, K, Q and R: a bias instability floor
+    has no known extent and a Gauss-Markov bump read as B vanishes on both sides of its
+    range. B's own fit has all the other lines subtracted.
     """
     total = np.zeros_like(t)
     for other, c in lines.items():
@@ -731,8 +733,7 @@ def allan_reading(
     tc_value = None
     if coefs["B"] is not None:
         idx = chosen["B"]
-        finite = np.where(np.isfinite(slopes[idx]), np.abs(slopes[idx]), np.inf)
-        tc_value = float(av.tau[idx[int(np.argmin(finite))]])
+        tc_value = float(av.tau[idx[int(np.argmin(av.avar[idx]))]])
     missing = [k for k in required if coefs[k] is None]
     if missing:
         name = missing[0]
