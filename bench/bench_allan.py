@@ -35,7 +35,8 @@ def main() -> None:
     rel = float(np.max(np.abs(dev**2 / ours.avar - 1.0)))
     t_ours = best_of(lambda: avar(x, freq, taus="octave"))
     t_peer = best_of(lambda: allantools.oadev(x, rate=freq, data_type="freq", taus="octave"))
-    print(f"N = {n}, {ours.tau.size} octave taus, max relative difference of the variances {rel:.1e}")
+    print(f"N = {n}, {ours.tau.size} octave taus, largest relative difference of the variances "
+          f"{rel:.1e}")
     print(f"stochmod avar (overlapping, with EDF intervals): {t_ours * 1e3:8.1f} ms")
     print(f"allantools.oadev:                               {t_peer * 1e3:8.1f} ms")
     print(f"ratio allantools / stochmod: {t_peer / t_ours:.2f}x (goal >= 3x)")
