@@ -21,7 +21,7 @@ from stochmod.errors import (
 from stochmod.hookspecs import hookimpl, hookspec
 from stochmod.model import Model, augment_axes, model_from_spec
 from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process
+from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.registry import get_process, process_names, register_plugin, unregister_plugin
 from stochmod.fit.gmwm import GMWMResult, gmwm
 from stochmod.signal.acf import acf, fit_gm_acf
@@ -41,6 +41,7 @@ __all__ = [
     "hookimpl",
     "hookspec",
     "Process",
+    "as_generator",
     "Parameter",
     "PhysicalValue",
     "Model",

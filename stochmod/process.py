@@ -143,12 +143,16 @@ class Process:
         """Number of scalar parameters."""
         return sum(p.size for p in self.parameters())
 
-    def _require_values(self) -> None:
+    def require_values(self) -> None:
+        """Raise :class:`SpecError` naming the free parameters, if any (call it before
+        evaluating a formula)."""
         if self.is_free:
             raise SpecError(
                 f"{self.family} has free parameter(s) {list(self.free_names)}: "
                 "give values or fit the model first"
             )
+
+    _require_values = require_values
 
     def with_values(self, **values: Any) -> Process:
         """Return a copy with the given parameters set (validated against their domains)."""
