@@ -9,21 +9,13 @@ stochmod call includes its interval computation (Greenhall EDF); allantools' doe
 
 from __future__ import annotations
 
-import time
 
 import allantools
 import numpy as np
 
 from stochmod.signal.allan import avar
+from _timing import best_of
 
-
-def best_of(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

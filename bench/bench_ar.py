@@ -9,7 +9,6 @@ coefficient difference, to show both compute the same estimate.
 from __future__ import annotations
 
 import sys
-import time
 import warnings
 
 import numpy as np
@@ -18,15 +17,7 @@ from statsmodels.regression.linear_model import burg as sm_burg
 from statsmodels.regression.linear_model import yule_walker as sm_yule_walker
 
 from stochmod.signal.ar_fit import burg, fit_ar, yule_walker
-
-
-def best_of(fn, repeat: int = 5) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+from _timing import best_of
 
 
 def main(n: int = 2_520_000) -> None:

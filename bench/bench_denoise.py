@@ -9,21 +9,12 @@ per-level SURE risk minimisation (a sort per level) costs over the plain pywt pi
 from __future__ import annotations
 
 import sys
-import time
 
 import numpy as np
 import pywt
 
 from stochmod.signal.denoise import denoise
-
-
-def best_of(fn, repeat: int = 5) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+from _timing import best_of
 
 
 def pywt_universal(x: np.ndarray) -> np.ndarray:

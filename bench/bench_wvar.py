@@ -9,22 +9,14 @@ peak extra memory of ``wvar`` (tracemalloc) relative to the input array, and the
 from __future__ import annotations
 
 import sys
-import time
 import tracemalloc
 
 import allantools
 import numpy as np
 
 from stochmod.signal.wavelet_variance import wvar
+from _timing import best_of
 
-
-def best_of(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def peak_ratio(fn, nbytes: int) -> float:
