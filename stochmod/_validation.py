@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 
 from stochmod.errors import InputError
 
-__all__ = ["as_signal", "as_signals", "check_freq", "check_positive_int"]
+__all__ = ["as_signal", "as_signals", "check_alpha", "check_freq", "check_positive_int"]
 
 
 def _as_float_array(x: ArrayLike, name: str) -> np.ndarray:
@@ -97,3 +97,14 @@ def check_positive_int(value: int, *, name: str, minimum: int = 1) -> int:
     if value < minimum:
         raise InputError(f"{name} must be at least {minimum}, got {value}")
     return int(value)
+
+
+def check_alpha(alpha: float) -> float:
+    """Return a significance level as a float in (0, 1), or raise :class:`InputError`."""
+    try:
+        value = float(alpha)
+    except (TypeError, ValueError):
+        raise InputError(f"alpha must be a number in (0, 1), got {alpha!r}") from None
+    if isinstance(alpha, bool) or not 0.0 < value < 1.0:
+        raise InputError(f"alpha must be a number in (0, 1), got {alpha!r}")
+    return value

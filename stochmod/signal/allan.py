@@ -46,10 +46,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import chdtri, ndtri
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod._fields import array_field
+from stochmod._validation import as_signal, check_alpha, check_freq, check_positive_int
 from stochmod.errors import InputError
 from stochmod.reporting import format_number, format_table
-from stochmod.signal.wavelet_variance import _check_alpha
 
 __all__ = [
     "AllanVariance",
@@ -86,10 +86,6 @@ _AUTO_MAX_SE = 0.25  # largest standard error of a slope used to identify the no
 _JMAX = 100  # Greenhall & Riley's bound on the number of terms of the basic sum
 
 
-def _array_field() -> Any:
-    return attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
-
-
 @attrs.frozen
 class AllanVariance:
     """One member of the Allan variance family of a rate signal, with intervals.
@@ -122,14 +118,14 @@ class AllanVariance:
         Significance level of the intervals.
     """
 
-    tau: np.ndarray = _array_field()
-    m: np.ndarray = _array_field()
-    avar: np.ndarray = _array_field()
-    ci_low: np.ndarray = _array_field()
-    ci_high: np.ndarray = _array_field()
-    n_terms: np.ndarray = _array_field()
-    edf: np.ndarray = _array_field()
-    noise: np.ndarray = _array_field()
+    tau: np.ndarray = array_field()
+    m: np.ndarray = array_field()
+    avar: np.ndarray = array_field()
+    ci_low: np.ndarray = array_field()
+    ci_high: np.ndarray = array_field()
+    n_terms: np.ndarray = array_field()
+    edf: np.ndarray = array_field()
+    noise: np.ndarray = array_field()
     kind: str
     freq: float
     n: int
@@ -763,7 +759,7 @@ def avar(
     d, overlapping, modified = _check_kind(kind)
     y = as_signal(x, name="x", min_length=d + 1)
     freq = check_freq(freq)
-    alpha = _check_alpha(alpha)
+    alpha = check_alpha(alpha)
     if ci not in CI_METHODS:
         raise InputError(f"ci must be one of {', '.join(map(repr, CI_METHODS))}; got {ci!r}")
     m = tau_grid(y.size, freq, taus, kind, points_per_decade=points_per_decade,

@@ -39,6 +39,7 @@ from scipy.linalg import solve_triangular
 from scipy.optimize import least_squares
 from scipy.special import chdtri, ndtri
 
+from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import EstimationError, InputError
 from stochmod.reporting import format_number, format_table
@@ -139,10 +140,6 @@ def _name_of_slope(slope: int) -> str:
     return next(k for k, v in TERMS.items() if v[0] == slope)
 
 
-def _array_field() -> Any:
-    return attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
-
-
 @attrs.frozen
 class AllanReading:
     """Coefficients read off an Allan variance curve by its slopes (IEEE Std 952).
@@ -182,7 +179,7 @@ class AllanReading:
     R: Coefficient | None
     Tc: float | None
     avar: AllanVariance
-    slopes: np.ndarray = _array_field()
+    slopes: np.ndarray = array_field()
     freq: float = 1.0
     unit: str | None = None
     gm: str = "quinchia"

@@ -16,7 +16,8 @@ import scipy.fft
 from numpy.typing import ArrayLike
 from scipy.special import chdtri, ndtri
 
-from stochmod._validation import as_signal, check_freq
+from stochmod._fields import array_field
+from stochmod._validation import as_signal, check_alpha, check_freq
 from stochmod.errors import InputError
 from stochmod.reporting import format_number, format_table
 from stochmod.signal.modwt import (
@@ -34,10 +35,6 @@ CI_METHODS = ("chi2", "normal")
 
 #: The "normal" interval's lower end is clipped at ``NORMAL_CI_FLOOR * wv`` (relative floor).
 NORMAL_CI_FLOOR = 1e-3
-
-
-def _array_field() -> Any:
-    return attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
 
 
 @attrs.frozen
@@ -68,12 +65,12 @@ class WaveletVariance:
         Significance level of the intervals.
     """
 
-    levels: np.ndarray = _array_field()
-    tau: np.ndarray = _array_field()
-    wv: np.ndarray = _array_field()
-    ci_low: np.ndarray = _array_field()
-    ci_high: np.ndarray = _array_field()
-    n_coef: np.ndarray = _array_field()
+    levels: np.ndarray = array_field()
+    tau: np.ndarray = array_field()
+    wv: np.ndarray = array_field()
+    ci_low: np.ndarray = array_field()
+    ci_high: np.ndarray = array_field()
+    n_coef: np.ndarray = array_field()
     freq: float
     wavelet: str
     n: int
@@ -111,16 +108,6 @@ class WaveletVariance:
             "ci_method": self.ci_method,
             "alpha": float(self.alpha),
         }
-
-
-def _check_alpha(alpha: float) -> float:
-    try:
-        value = float(alpha)
-    except (TypeError, ValueError):
-        raise InputError(f"alpha must be a number in (0, 1), got {alpha!r}") from None
-    if isinstance(alpha, bool) or not 0.0 < value < 1.0:
-        raise InputError(f"alpha must be a number in (0, 1), got {alpha!r}")
-    return value
 
 
 def _chi2_interval(
@@ -209,7 +196,7 @@ def wvar(
     )
     if ci not in CI_METHODS:
         raise InputError(f"ci must be one of {CI_METHODS}, got {ci!r}")
-    alpha = _check_alpha(alpha)
+    alpha = check_alpha(alpha)
     if x.max() == x.min():
         raise InputError("x is constant: its wavelet variance is zero at every level")
 
