@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from stochmod import units
+from stochmod import examples, units
 from stochmod.errors import (
     DomainError,
     EstimationError,
@@ -24,6 +24,7 @@ from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.registry import get_process, process_names, register_plugin, unregister_plugin
 from stochmod.fit.gmwm import GMWMResult, gmwm
+from stochmod.fit.selection import SelectionResult, candidate_lattice, select
 from stochmod.signal.acf import acf, fit_gm_acf
 from stochmod.signal.allan import AllanVariance, avar
 from stochmod.signal.allan_reading import AllanReading, allan_reading
@@ -53,6 +54,10 @@ __all__ = [
     "register_plugin",
     "unregister_plugin",
     "units",
+    "examples",
+    "select",
+    "SelectionResult",
+    "candidate_lattice",
     "to_si",
     "from_si",
     "convert",

@@ -1,37 +1,180 @@
-"""The main job ``stochmod calibrate`` on a small simulated recording and on the bundled example."""
+"""``stochmod calibrate`` (the main job), the bundled XSens MTi-G example and the figures."""
+
+from __future__ import annotations
 
 import json
+import math
+import sys
 
 import numpy as np
+import pytest
 
 import stochmod
 from stochmod.cli import main
+from stochmod.errors import InputError
+from stochmod.examples import XSENS_COLUMNS, xsens_mtig, xsens_mtig_models
+from stochmod.fit.gmwm import gmwm
+
+G0 = 9.80665  # standard gravity, m/s^2 (ug = 1e-6 g0)
 
 
-def test_calibrate_file_writes_models_and_augmentation(tmp_path, capsys):
-    truth = stochmod.model_from_spec("GM(beta=1.0, sigma2=1e-2)+WN(sigma2=1e-2)", 50.0)
-    path = tmp_path / "rec.npy"
+@pytest.fixture(scope="module")
+def gm_wn_file(tmp_path_factory):
+    truth = stochmod.model_from_spec("GM(beta=1.0, sigma2=1e-2) + WN(sigma2=1e-2)", 50.0)
+    path = tmp_path_factory.mktemp("rec") / "rec.npy"
     np.save(path, truth.simulate(2**14, rng=9)[:, None])
-    code = main(["calibrate", str(path), "--freq", "50", "--out", str(tmp_path / "out"),
-                 "--candidates", "WN", "GM+WN", "--no-plots", "--dt", "0.04"])
+    return path
+
+
+def run_json(args: list[str], capsys) -> dict:
+    assert main(args) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+# ---------------------------------------------------------------- calibrate on a file
+def test_calibrate_file_writes_models_augmentation_and_figure(gm_wn_file, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main(["calibrate", str(gm_wn_file), "--freq", "50", "--out", str(out), "--dt", "0.04",
+                 "--candidates", "WN", "GM+WN", "2*GM+WN", "--n-sim", "3"])
     assert code == 0
-    report = json.loads((tmp_path / "out" / "calibration.json").read_text())
+    text = capsys.readouterr().out
+    assert "GM+WN" in text and "calibration.json" in text
+    report = json.loads((out / "calibration.json").read_text())
     col = report["columns"]["0"]
     assert col["name"] == "GM+WN"
+    assert [r["model"] for r in col["ranking"]][0] == "GM+WN"
+    (gm, wn) = col["model"]["processes"]
+    beta, s2 = gm["params"]["beta"], gm["params"]["sigma2"]
+    assert beta == pytest.approx(1.0, rel=0.5) and s2 == pytest.approx(1e-2, rel=0.5)
     aug = col["augmentation"]
-    assert len(aug["state_names"]) == 1 and aug["state_names"][0].startswith("GM.")
-    beta = col["model"]["processes"][0]["params"]["beta"]
-    assert abs(np.asarray(aug["Phi"])[0, 0] - np.exp(-beta * 0.04)) < 1e-12
-    assert "GM+WN" in capsys.readouterr().out
+    dt = 0.04
+    # closed forms of a GM block at step dt and the WN feed-through
+    assert aug["state_names"] == ["GM.x"] or len(aug["state_names"]) == 1
+    assert np.asarray(aug["Phi"])[0, 0] == pytest.approx(math.exp(-beta * dt), rel=1e-12)
+    assert np.asarray(aug["Q"])[0, 0] == pytest.approx(s2 * -math.expm1(-2 * beta * dt), rel=1e-9)
+    assert np.asarray(aug["P0"])[0, 0] == pytest.approx(s2, rel=1e-12)
+    assert aug["white_var"] == pytest.approx(wn["params"]["sigma2"], rel=1e-12)
+    imu = report["imu_augmentation"]
+    assert imu["axes"] == ["0"] and np.asarray(imu["H"]).shape == (1, 1)
+    assert {p["name"] for p in col["physical"]} >= {"GM.Tc", "GM.sigma", "WN.N"}
+    pytest.importorskip("matplotlib")
+    png = (out / "0.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
 
 
-def test_calibrate_bundled_example_runs(tmp_path):
-    code = main(["calibrate", "--n", "4096", "--column", "gyro_x", "--candidates", "WN", "GM+WN",
-                 "--out", str(tmp_path), "--json", "--no-plots"])
-    assert code == 0
-    assert "gyro_x" in json.loads((tmp_path / "calibration.json").read_text())["columns"]
+def test_calibrate_scale_is_equivariant(gm_wn_file, tmp_path, capsys):
+    """Scaling the data by s scales every variance by s^2 (GMWM is scale equivariant)."""
+    base = ["calibrate", str(gm_wn_file), "--freq", "50", "--candidates", "GM+WN", "--no-plots",
+            "--json"]
+    a = run_json(base + ["--out", str(tmp_path / "a")], capsys)["columns"]["0"]["model"]
+    b = run_json(base + ["--out", str(tmp_path / "b"), "--scale", "3"], capsys)["columns"]["0"]["model"]
+    for pa, pb in zip(a["processes"], b["processes"]):
+        assert pb["params"]["sigma2"] == pytest.approx(9 * pa["params"]["sigma2"], rel=1e-5)
+    assert b["processes"][0]["params"]["beta"] == pytest.approx(a["processes"][0]["params"]["beta"],
+                                                                 rel=1e-5)
 
 
-def test_calibrate_missing_file_is_a_one_line_error(tmp_path, capsys):
+def test_calibrate_lattice_and_json_output_match_the_file(gm_wn_file, tmp_path, capsys):
+    out = tmp_path / "lat"
+    printed = run_json(["calibrate", str(gm_wn_file), "--freq", "50", "--families", "GM", "WN",
+                        "--max-gm", "2", "--out", str(out), "--no-plots", "--json"], capsys)
+    assert printed == json.loads((out / "calibration.json").read_text())
+    ranking = printed["columns"]["0"]["ranking"]
+    assert sorted(r["model"] for r in ranking) == sorted(["GM", "2*GM", "WN", "GM+WN", "2*GM+WN"])
+    assert printed["columns"]["0"]["name"] == "GM+WN"
+
+
+# ---------------------------------------------------------------- the bundled example
+def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
+    report = run_json(["calibrate", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",
+                       "--candidates", "WN", "GM+WN", "--out", str(tmp_path), "--no-plots",
+                       "--json"], capsys)
+    assert sorted(report["columns"]) == ["accel_x", "gyro_x"]  # JSON keys are sorted
+    assert report["freq"] == 100.0 and report["n"] == 8192
+    imu = report["imu_augmentation"]
+    assert imu["axes"] == ["gyro_x", "accel_x"]  # row order of H
+    n_states = len(imu["state_names"])
+    assert np.asarray(imu["H"]).shape == (2, n_states)
+    assert np.asarray(imu["Phi"]).shape == (n_states, n_states)
+    assert len(imu["white_var"]) == 2
+    assert all(name.split(".")[0] in ("gyro_x", "accel_x") for name in imu["state_names"])
+
+
+def test_calibrate_errors_are_one_line(gm_wn_file, tmp_path, capsys):
     assert main(["calibrate", str(tmp_path / "nope.csv"), "--freq", "10"]) == 2
     assert "no such file" in capsys.readouterr().err
+    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--n", "100"]) == 2
+    assert "bundled example only" in capsys.readouterr().err
+    assert main(["calibrate", "--freq", "50", "--out", str(tmp_path)]) == 2
+    assert "does not apply" in capsys.readouterr().err
+    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--scale", "-1"]) == 2
+    assert "--scale" in capsys.readouterr().err
+    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--dt", "0", "--out", str(tmp_path)]) == 2
+    assert "--dt" in capsys.readouterr().err
+
+
+def test_example_columns_units_and_reproducibility():
+    rec = xsens_mtig(n=4096, seed=3)
+    assert rec.columns == XSENS_COLUMNS and rec.freq == 100.0 and rec.data.shape == (4096, 6)
+    again = xsens_mtig(n=4096, seed=3)
+    assert np.array_equal(rec.data, again.data)
+    assert not np.array_equal(rec.data, xsens_mtig(n=4096, seed=4).data)
+    assert abs(np.corrcoef(rec.data[:, 0], rec.data[:, 1])[0, 1]) < 0.1  # independent axes
+    with pytest.raises(InputError):
+        xsens_mtig(n=10)
+    with pytest.raises(InputError, match="reading"):
+        xsens_mtig_models(reading="psd")
+
+
+def test_example_models_follow_table_ii():
+    """Stebler et al. (2014) Table II, converted by hand: WN density N -> N^2 freq; GM driving
+    density q -> stationary variance q^2 / (2 beta); deg -> rad, ug -> 1e-6 g0."""
+    models = xsens_mtig_models(100.0)
+    gyro, accel = models["gyro_x"], models["accel_z"]
+    assert [p.family for p in gyro.processes] == ["GM", "GM", "WN"]
+    assert [p.family for p in accel.processes] == ["GM", "GM", "GM", "WN"]
+    deg = math.pi / 180
+    assert gyro.processes[2].sigma2 == pytest.approx((0.032 * deg) ** 2 * 100, rel=1e-12)
+    assert gyro.processes[1].beta == 9.03e-4
+    assert gyro.processes[1].sigma2 == pytest.approx((8.64e-4 * deg) ** 2 / (2 * 9.03e-4), rel=1e-12)
+    assert accel.processes[3].sigma2 == pytest.approx((85.5e-6 * G0) ** 2 * 100, rel=1e-12)
+    assert accel.processes[2].sigma2 == pytest.approx((900e-6 * G0) ** 2 / (2 * 2.32e-4), rel=1e-12)
+    alt = xsens_mtig_models(100.0, reading="stationary")["accel_x"]
+    assert alt.processes[2].sigma2 == pytest.approx((900e-6 * G0) ** 2, rel=1e-12)
+
+
+def test_example_simulation_has_the_models_wavelet_variance():
+    rec = xsens_mtig(n=2**15, seed=5)
+    J = 8
+    for k in (0, 3):
+        fit_wv = stochmod.wvar(rec.data[:, k], 100.0, levels=J)
+        truth = xsens_mtig_models()[rec.columns[k]].wv(J)
+        eta = np.maximum(fit_wv.n_coef / 2.0 ** fit_wv.levels, 1)
+        z = (fit_wv.wv - truth) / (truth * np.sqrt(2 / eta))  # chi2 standard errors
+        assert np.all(np.abs(z) < 4), (rec.columns[k], z)
+
+
+# ---------------------------------------------------------------- figures
+def test_simulated_wv_mean_matches_theory_and_figure_has_the_layers():
+    pytest.importorskip("matplotlib")
+    from stochmod.plots import plot_fit, simulated_wv
+
+    truth = stochmod.model_from_spec("WN(sigma2=4.0)", 10.0)
+    fit = gmwm(truth.simulate(2**12, rng=1), "WN", 10.0)
+    sims = simulated_wv(fit, n_sim=40, rng=2)
+    theory = fit.model.wv(fit.levels)
+    se = sims.std(axis=0, ddof=1) / np.sqrt(40)
+    assert np.all(np.abs(sims.mean(axis=0) - theory) < 4 * se)
+    fig = plot_fit(fit, n_sim=5, rng=0, unit="rad/s")
+    ax = fig.axes[0]
+    assert len(ax.lines) == 5 + 2  # simulations, empirical, model
+    assert ax.get_xscale() == "log" and "(rad/s)^2" in ax.get_ylabel()
+
+
+def test_plots_without_matplotlib_name_the_extra(monkeypatch):
+    from stochmod import plots
+
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
+    fit = gmwm(np.random.default_rng(0).standard_normal(1024), "WN", 10.0)
+    with pytest.raises(ImportError, match=r"stochmod\[plots\]"):
+        plots.plot_fit(fit, n_sim=0)

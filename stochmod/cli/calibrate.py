@@ -1,133 +1,182 @@
-"""``stochmod calibrate``: select and fit a model per column, report, export the EKF augmentation."""
+"""``stochmod calibrate``: the main job. Select and fit a model per column, report, and export
+the Kalman-filter augmentation (``calibration.json``) and validation figures."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+import attrs
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json, to_jsonable
-from stochmod.examples import xsens_mtig
-from stochmod.fit.selection import select
+from stochmod.cli.select import add_selection_arguments, selection_options
+from stochmod.errors import EstimationError, InputError
+from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
+from stochmod.fit.selection import SelectionResult, select
+from stochmod.io import Recording
 from stochmod.model import augment_axes
 from stochmod.reporting import format_table
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.statespace import StateSpaceBlock
 
-__all__ = ["register", "run", "DEFAULT_CANDIDATES"]
-
-#: Candidates tried when the user gives none: the usual inertial-sensor structures.
-DEFAULT_CANDIDATES = ("WN", "GM+WN", "2*GM+WN", "3*GM+WN", "GM+WN+RW", "2*GM+WN+RW", "QN+WN+RW")
+__all__ = ["register", "run", "calibration_report"]
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate`` subcommand."""
     p = subparsers.add_parser(
-        "calibrate", help="select and fit a noise model per column (the main job)",
-        description="Select a composite model per column by the GMWM and a wavelet-variance "
-                    "information criterion, print a report, write calibration.json (models, "
-                    "physical parameters with intervals, EKF augmentation at --dt) and figures. "
-                    "Without FILE, runs on a simulated XSens MTi-G recording (Stebler et al. 2014, Table II).",
+        "calibrate",
+        help="select and fit a noise model per column, export the EKF augmentation (main job)",
+        description=(
+            "Select a composite noise model for each column by the GMWM and the wavelet-variance "
+            "information criterion, print the selected models with physical parameters, 95% "
+            "intervals and J-tests, and write OUT/calibration.json (per column: selected spec, "
+            "physical parameters, ranking, EKF augmentation Phi, Q, H, P0, white_var at --dt; and "
+            "the whole IMU's augmentation) and, with matplotlib, OUT/<column>.png. Without FILE it "
+            "runs on the bundled example: a simulated XSens MTi-G (Stebler et al. 2014, Table II), "
+            "gyro_x/y/z in rad/s and accel_x/y/z in m/s^2 at 100 Hz."
+        ),
     )
     add_input_arguments(p, file_required=False)
-    p.add_argument("--dt", type=float, default=None, help="Kalman filter step in s (default 1/freq)")
-    p.add_argument("--out", default="stochmod-calibration", help="output folder")
-    p.add_argument("--candidates", nargs="+", default=list(DEFAULT_CANDIDATES), metavar="SPEC",
-                   help="candidate model specs (default: %(default)s)")
-    p.add_argument("--n", type=int, default=2**17, help="samples of the bundled example (no FILE)")
+    add_selection_arguments(p)
+    p.add_argument("--dt", type=float, default=None, metavar="DT",
+                   help="Kalman filter step in s for the augmentation (default 1/freq)")
+    p.add_argument("--out", default="stochmod-calibration", metavar="DIR",
+                   help="output folder (default ./stochmod-calibration)")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help="multiply the data by this factor first, e.g. 0.017453292519943295 for "
+                        "deg/s -> rad/s (default 1)")
+    p.add_argument("--n", type=int, default=DEFAULT_EXAMPLE_N,
+                   help=f"samples per column of the bundled example (no FILE; default {DEFAULT_EXAMPLE_N})")
+    p.add_argument("--n-sim", type=int, default=20,
+                   help="series simulated from each fit for the figures (default 20)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the calibration and write its outputs."""
+def _input(args: argparse.Namespace) -> tuple[Recording, float]:
     if args.file is None:
         rec = xsens_mtig(n=args.n).select(args.column)
-        freq = float(args.freq or rec.freq)
-    else:
-        rec, freq = load_input(args)
-    data = rec.data - rec.data.mean(axis=0)
-    results = select(data, freq, candidates=args.candidates, names=list(rec.columns), progress=False)
-    results = results if isinstance(results, list) else [results]
-    dt = args.dt if args.dt is not None else 1.0 / freq
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, Any] = {"source": rec.path, "freq": freq, "dt": dt, "columns": {}}
+        if args.freq is not None and args.freq != rec.freq:
+            raise InputError(f"--freq {args.freq:g} does not apply to the bundled example ({rec.freq:g} Hz)")
+        return rec, float(rec.freq)
+    if args.n != DEFAULT_EXAMPLE_N:
+        raise InputError("--n applies to the bundled example only (no FILE)")
+    return load_input(args)
+
+
+def _block_dict(block: StateSpaceBlock) -> dict[str, Any]:
+    return {"state_names": list(block.state_names), "Phi": block.Phi, "Q": block.Q,
+            "H": block.H, "P0": block.P0, "white_var": block.white_var, "dt": block.dt}
+
+
+def _safe(fn: Any) -> Any:
+    """Value of an inference accessor, or None where the fit is not identified."""
+    try:
+        return fn()
+    except EstimationError:
+        return None
+
+
+def calibration_report(results: list[SelectionResult], rec: Recording, freq: float, dt: float,
+                       scale: float = 1.0) -> dict[str, Any]:
+    """The content of ``calibration.json`` (JSON-safe after ``to_jsonable``)."""
+    columns: dict[str, Any] = {}
+    for sel in results:
+        best = sel.best
+        phys = _safe(best.physical)
+        params = _safe(best.parameters)
+        jt = best.jtest
+        columns[sel.column] = {
+            "name": best.model.name,
+            "model": best.model.to_spec(),
+            "objective": best.objective,
+            "parameters": None if params is None else [attrs.asdict(e) for e in params],
+            "physical": None if phys is None else [attrs.asdict(e) for e in phys],
+            "jtest": None if jt is None else attrs.asdict(jt),
+            "criterion": sel.criterion,
+            "weighting": sel.weighting,
+            "ranking": [attrs.asdict(r) for r in sel.ranking],
+            "augmentation": _block_dict(best.model.augment(dt)),
+        }
+    imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
+    return {
+        "source": rec.path,
+        "freq": freq,
+        "dt": dt,
+        "n": int(rec.data.shape[0]),
+        "scale": scale,
+        "columns": columns,
+        "imu_augmentation": {
+            "axes": list(imu.axes), "state_names": list(imu.state_names), "Phi": imu.Phi,
+            "Q": imu.Q, "H": imu.H, "P0": imu.P0, "white_var": imu.white_var, "dt": dt,
+        },
+    }
+
+
+def _filename(column: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", column).strip("_") or "column"
+
+
+def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
+             units: dict[str, str]) -> list[Path]:
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        return []
+    from stochmod.plots import save_fit_figure
+
+    return [save_fit_figure(sel.best, out / f"{_filename(sel.column)}.png", n_sim=n_sim, rng=seed,
+                            title=f"{sel.column}: {sel.best.model.name}",
+                            unit=units.get(sel.column, "u"))
+            for sel in results]
+
+
+def _table(results: list[SelectionResult], rec: Recording, freq: float,
+           units: dict[str, str]) -> str:
     rows = []
     for sel in results:
         best = sel.best
-        aug = best.model.augment(dt)
-        report["columns"][sel.column] = {
-            "model": best.model.to_spec(), "name": best.model.name, "objective": best.objective,
-            "physical": [vars_of(e) for e in best.physical()],
-            "jtest": None if best.jtest is None else vars_of(best.jtest),
-            "ranking": [vars_of(r) for r in sel.ranking],
-            "augmentation": _augmentation_dict(aug),
-        }
-        for e in best.physical():
-            rows.append([sel.column, best.model.name, e.name, e.value, e.low, e.high, e.unit])
-    imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
-    report["imu_augmentation"] = {
-        "state_names": list(imu.state_names), "Phi": imu.Phi, "Q": imu.Q, "P0": imu.P0,
-        "H": imu.H, "white_var": imu.white_var, "axes": list(imu.axes),
-    }
-    (out / "calibration.json").write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True))
-    figures = [] if args.no_plots else _figures(results, data, freq, out)
+        jt = best.jtest
+        pval = "n/a" if jt is None else f"{jt.pvalue:.3g}"
+        signal_unit = units.get(sel.column)
+        for e in _safe(best.physical) or []:
+            unit = re.sub(r"\bu\b", f"({signal_unit})", e.unit) if signal_unit else e.unit
+            rows.append([sel.column, best.model.name, e.name, e.value, e.low, e.high, unit, pval])
+    title = (f"stochmod calibrate: {rec.path} ({rec.data.shape[0]} samples x {len(results)} "
+             f"column(s) at {freq:g} Hz); selected by {results[0].criterion}")
+    return format_table(["column", "model", "parameter", "value", "95% low", "95% high", "unit",
+                         "J-test p"], rows, title=title)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Select, fit, report and write calibration.json (+ figures)."""
+    rec, freq = _input(args)
+    if not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    dt = 1.0 / freq if args.dt is None else args.dt
+    if not dt > 0:
+        raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    data = rec.data * args.scale
+    results = select(data, freq, names=list(rec.columns), **selection_options(args))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    report = calibration_report(results, rec, freq, dt, args.scale)
+    path = out / "calibration.json"
+    path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
+    units = XSENS_UNITS if args.file is None else {}
+    figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units)
     if args.json:
         print_json(report)
         return 0
-    print(format_table(["column", "model", "parameter", "value", "95% low", "95% high", "unit"], rows,
-                       title=f"stochmod calibrate: {rec.path} ({data.shape[0]} samples at {freq:g} Hz)"))
-    for sel in results:
-        jt = sel.best.jtest
-        if jt is not None:
-            print(f"{sel.column}: J-test p-value {jt.pvalue:.3g} (df {jt.df})")
-    print(f"wrote {out / 'calibration.json'}" + (f" and {len(figures)} figure(s)" if figures else ""))
+    print(_table(results, rec, freq, units))
+    print()
+    print(format_table(["column", "selected", "2nd", "criterion gap"],
+                       [[s.column, s.ranking[0].model, s.ranking[1].model if len(s.ranking) > 1 else "-",
+                         s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
+                        for s in results]))
+    written = [str(path)] + [str(f) for f in figures]
+    print(f"\nwrote {', '.join(written)}")
     return 0
-
-
-def vars_of(obj: Any) -> dict[str, Any]:
-    """Fields of an attrs result row as a dict."""
-    import attrs
-
-    return attrs.asdict(obj)
-
-
-def _augmentation_dict(aug: Any) -> dict[str, Any]:
-    return {"state_names": list(aug.state_names), "Phi": aug.Phi, "Q": aug.Q, "H": aug.H,
-            "P0": aug.P0, "white_var": aug.white_var, "dt": aug.dt}
-
-
-def _figures(results: list[Any], data: np.ndarray, freq: float, out: Path) -> list[Path]:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return []
-    paths = []
-    for i, sel in enumerate(results):
-        best, emp = sel.best, sel.empirical
-        J = best.levels
-        sims = np.array([wvar(best.model.simulate(data.shape[0], seed), freq, levels=J).wv
-                         for seed in range(20)])
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        for s in sims:
-            ax.loglog(emp.tau[:J], np.sqrt(s), color="0.8", lw=0.8)
-        ax.fill_between(emp.tau[:J], np.sqrt(emp.ci_low[:J]), np.sqrt(emp.ci_high[:J]),
-                        color="C0", alpha=0.25, label="95% CI")
-        ax.loglog(emp.tau[:J], np.sqrt(emp.wv[:J]), "o", color="C0", label="empirical")
-        ax.loglog(emp.tau[:J], np.sqrt(best.model_wv()), "^-", color="C3", label=f"fit {best.model.name}")
-        ax.set_xlabel("tau [s]")
-        ax.set_ylabel("wavelet deviation (sqrt WV)")
-        ax.set_title(f"{sel.column}: {best.model.name}")
-        ax.legend()
-        path = out / f"{sel.column}.png"
-        fig.tight_layout()
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        paths.append(path)
-    return paths

@@ -1,20 +1,26 @@
 """Automatic model selection: fit a lattice of nested composite models by the GMWM and rank them.
 
 ``select(x, freq)`` builds the candidates (given specs, or every combination of the families
-up to their maximal counts, e.g. 0..3 GM with WN, RW, QN, RR in or out), arranges them in a
-:class:`networkx.DiGraph` whose edges add one process, and fits them generation by generation
-with one weighting matrix ``Omega`` and one WV covariance ``V`` per signal, so that objectives
-and criteria compare. A child starts from each parent's fit padded with the new component
-(once at the family's starting guess, once with a negligible amplitude), so that its objective
-is never worse than any parent's. Fits run through any :class:`concurrent.futures.Executor`
-(``executor.map`` only: a ``dask.distributed`` client's ``get_executor()`` works unchanged);
-work items are plain data (specs, the empirical WV, ``Omega``, ``V``, seeds).
+up to their maximal counts, e.g. 0..3 GM with WN, RW, QN, RR in or out) and arranges them in a
+:class:`networkx.DiGraph` whose edges add one process. All candidates of a signal share one
+weighting matrix ``Omega`` and one WV covariance ``V`` (eq. 17), so objectives and criteria
+compare. Candidates without a fitted parent get the GMWM's full multi-start search; a child
+starts from its best parent's fit padded with a negligible copy of the added process (so its
+objective is never worse than any parent's) and from its parents' fits padded with the added
+process started on the residual WV at several time scales (screened by the objective).
+
+Fits run through any :class:`concurrent.futures.Executor` using ``submit`` only, each as soon
+as its parents are done (a ``dask.distributed`` client's ``get_executor()`` works unchanged);
+work items are plain picklable data (specs, the empirical WV, ``Omega``, seeds). Every fit's
+seed depends only on ``rng`` and the candidate, so results do not depend on the executor, on
+the order fits complete, or on the other columns of a multi-axis signal.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import inspect
 import itertools
 import warnings
 from collections import Counter, defaultdict
@@ -56,8 +62,12 @@ _PARENT_STARTS = 2  # a child starts from its best parents' fits (smallest objec
 _SCALES = 6  # time scales at which an added process is tried
 _CHILD_RANDOM = 2  # perturbed family guesses screened for a child
 _CHILD_KEEP = 2  # screened starts refined by a local search
-_CHILD_NFEV = 300  # evaluation budget of one local search of a child
+_CHILD_NFEV = 200  # evaluation budget of one local search of a child
 _CHILD_TOL = 1e-10  # its tolerances (relative change of the objective / step)
+_STALL_WINDOW, _STALL_RTOL = 5, 1e-5  # ... and its stagnation stop (see _Stagnation)
+_STALL_MESSAGE = (f"objective changed by less than {_STALL_RTOL:g} (relative) over "
+                  f"{_STALL_WINDOW} iterations")
+_HAS_CALLBACK = "callback" in inspect.signature(optimize.least_squares).parameters  # scipy >= 1.16
 
 
 # --------------------------------------------------------------------------- candidates
@@ -128,7 +138,8 @@ def nested_graph(models: Sequence[Model]) -> nx.DiGraph:
     keys = {}
     for m in models:
         if m.name in graph:
-            raise InputError(f"candidate {m.name!r} is listed twice")
+            raise InputError(f"candidate {m.name!r} is listed twice (candidates are told apart by "
+                             "their structure, not by fixed values)")
         graph.add_node(m.name, model=m, n_params=m.n_params)
         keys[m.name] = _terms(m)
     for child, ck in keys.items():
@@ -157,11 +168,12 @@ def _as_candidates(candidates: Sequence[Any] | None, families: Sequence[str],
 # --------------------------------------------------------------------------- work items
 @attrs.frozen
 class _Column:
-    """What every fit of one signal shares: the empirical WV, Omega and V."""
+    """What every fit of one signal shares: the empirical WV and Omega (and V when Omega
+    needs it; otherwise V is computed in parallel with the fits and attached at the end)."""
 
     empirical: WaveletVariance
     omega: np.ndarray
-    covariance: np.ndarray
+    covariance: np.ndarray | None = None
 
 
 @attrs.frozen
@@ -169,8 +181,9 @@ class _Task:
     """One GMWM fit; plain picklable data (specs, not models or callables).
 
     A root (no fitted parent) gets gmwm's full multi-start search. A child gets local
-    searches from `starts` (always, e.g. the negligibly padded best parent) and from the
-    best `n_keep` of `screen` (padded parents, family guesses) by objective value.
+    searches from the best ``_CHILD_KEEP`` of `screen` (padded parents, family guesses) by
+    objective value, and from `starts` (the negligibly padded best parent) unless a screened
+    start is already at least as good.
     """
 
     column: int
@@ -189,20 +202,42 @@ class _Task:
 
 
 def _prepare(item: tuple[np.ndarray, float, int | None, str]) -> _Column:
-    """Empirical WV, weighting and asymptotic WV covariance (eq. 17) of one signal."""
+    """Empirical WV and weighting of one signal (with V, eq. 17, for the optimal weighting)."""
     x, freq, levels, weighting = item
     emp = wvar(x, freq, levels=levels)
     J = emp.wv.size
     if np.any(emp.wv <= 0):
         raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
-    V = wv_covariance(x, J)
     if weighting == "diagonal":
-        omega = np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels))
-    elif weighting == "identity":
-        omega = np.eye(J)
-    else:  # optimal
-        omega = weighting_from_covariance(V)
-    return _Column(emp, omega, V)
+        return _Column(emp, np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels)))
+    if weighting == "identity":
+        return _Column(emp, np.eye(J))
+    V = wv_covariance(x, J)
+    return _Column(emp, weighting_from_covariance(V), V)
+
+
+def _covariance(item: tuple[np.ndarray, int]) -> np.ndarray:
+    """Asymptotic covariance V of the empirical WV (eq. 17) at levels 1..J."""
+    x, J = item
+    return wv_covariance(x, J)
+
+
+class _Stagnation:
+    """least_squares callback: stop when the objective fell by less than a relative
+    ``_STALL_RTOL`` over the last ``_STALL_WINDOW`` iterations (a degenerate direction, such
+    as a GM sliding towards a random walk, otherwise uses the whole evaluation budget for
+    changes that no criterion can see). The iterate returned is the last accepted one, so the
+    objective still never exceeds the start's."""
+
+    def __init__(self) -> None:
+        self.costs: list[float] = []
+
+    def __call__(self, intermediate_result: optimize.OptimizeResult) -> None:
+        self.costs.append(float(intermediate_result.cost))
+        if len(self.costs) > _STALL_WINDOW:
+            old, new = self.costs[-_STALL_WINDOW - 1], self.costs[-1]
+            if old - new <= _STALL_RTOL * new:
+                raise StopIteration
 
 
 def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
@@ -228,17 +263,19 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     best: dict[str, Any] | None = None
     nfev = 0
     for x0 in chosen:
+        extra = {"callback": _Stagnation()} if _HAS_CALLBACK else {}
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore", RuntimeWarning)
             res = optimize.least_squares(
                 problem.residuals, np.clip(x0, -_BOUND, _BOUND), jac=problem.jacobian,
                 bounds=(-_BOUND, _BOUND), method="trf", x_scale="jac", xtol=_CHILD_TOL,
-                ftol=_CHILD_TOL, gtol=_CHILD_TOL, max_nfev=_CHILD_NFEV)
+                ftol=_CHILD_TOL, gtol=_CHILD_TOL, max_nfev=_CHILD_NFEV, **extra)
         nfev += res.nfev
         value = problem.safe_objective(res.x)
         if best is None or value < best["objective"]:
-            best = {"x": res.x, "objective": value, "converged": bool(res.success),
-                    "message": str(res.message)}
+            stalled = res.status == -2  # stopped by _Stagnation: converged for every purpose
+            best = {"x": res.x, "objective": value, "converged": bool(res.success) or stalled,
+                    "message": _STALL_MESSAGE if stalled else str(res.message)}
     if best is None or not np.isfinite(best["objective"]):
         raise EstimationError(f"GMWM failed to find a finite objective for {base.name}")
     best.update(model=problem.model(best["x"]), nfev=nfev + len(pool), n_starts=len(chosen))
@@ -279,8 +316,8 @@ def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | Non
         return None
     for spec in proc.parameters():
         value = getattr(proc, spec.name)
-        if spec.size != 1 or value is None or value == 0:
-            continue
+        if spec.size != 1 or value is None or np.ndim(value) != 0 or value == 0:
+            continue  # vector-valued (AR phi), free or zero: not an amplitude
         try:
             doubled = proc.with_values(**{spec.name: 2.0 * value}).wv(J, freq)
         except (DomainError, ArithmeticError, ValueError):
@@ -379,9 +416,10 @@ class RankingRow:
     jtest_pvalue : float or None
         p-value of the J-test of eq. 27 (goodness of fit; None when not computable).
     identified : bool
-        Whether the fit's parameters are identified (see :func:`stochmod.fit.criteria.identified`);
-        unidentified fits (e.g. a component run to zero amplitude or to an infinite correlation
-        time) rank after all identified ones and are never selected while one is identified.
+        Whether the fit's parameters are locally identified (see
+        :func:`stochmod.fit.criteria.identified`); unidentified fits (e.g. a GM whose correlation
+        time ran to infinity, so that only ``sigma2 * beta`` matters) rank after all identified
+        ones and are never selected while one is identified.
     """
 
     model: str
@@ -449,20 +487,27 @@ class SelectionResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe summary: selected fit, ranking, nesting edges."""
+        try:
+            best = self.best.to_dict()
+        except EstimationError:  # no identified candidate: no intervals
+            best = {"model": self.best.model.to_spec(), "name": self.best.model.name,
+                    "objective": self.best.objective, "identified": False}
         return {
             "column": self.column,
             "criterion": self.criterion,
             "weighting": self.weighting,
             "selected": self.best.model.name,
-            "best": self.best.to_dict(),
+            "best": best,
             "ranking": [attrs.asdict(r) for r in self.ranking],
             "edges": [[a, b] for a, b in self.graph.edges],
         }
 
 
 # --------------------------------------------------------------------------- driver
-def _seed(rng: int, column: int, index: int) -> int:
-    return int(np.random.SeedSequence([rng, column, index]).generate_state(1)[0])
+def _seed(rng: int, index: int) -> int:
+    """Seed of candidate `index`: the same for every column and executor, so a column's
+    selection does not depend on the other columns or on the order fits complete."""
+    return int(np.random.SeedSequence([rng, index]).generate_state(1)[0])
 
 
 def _base_seed(rng: Any) -> int:
@@ -498,8 +543,9 @@ def _executor(executor: Any) -> Iterator[Any]:
         with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
             yield pool
     else:
-        if not callable(getattr(executor, "map", None)):
-            raise InputError(f"executor must be a concurrent.futures.Executor (with .map), got {executor!r}")
+        if not callable(getattr(executor, "submit", None)):
+            raise InputError(f"executor must be a concurrent.futures.Executor (with .submit), "
+                             f"got {executor!r}")
         yield executor
 
 
@@ -563,8 +609,9 @@ def select(
     weighting : {"diagonal", "optimal", "identity"}
         Weighting matrix Omega, the same for every candidate of a signal.
     executor : concurrent.futures.Executor, optional
-        Runs the fits through ``executor.map`` (thread or process pools, a dask client's
-        ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers.
+        Runs the fits through ``executor.submit`` (thread or process pools, a dask client's
+        ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers, shut down on
+        return.
     progress : bool, optional
         Show a tqdm progress bar (None: only when there are more than 8 fits).
     rng : int or Generator
@@ -595,39 +642,76 @@ def select(
         max_counts = {"GM": 3} if "GM" in families else {}
     models = _as_candidates(candidates, families, max_counts)
     graph = nested_graph(models)
-    order = {name: i for i, name in enumerate(graph.nodes)}
-    generations = [sorted(g, key=order.get) for g in nx.topological_generations(graph)]
-    n_fits = len(order) * len(cols)
+    n_fits = graph.number_of_nodes() * len(cols)
+
+    for name, node in graph.nodes.items():
+        if not node["model"].free_mask().any():
+            raise SpecError(f"candidate {name} has no free parameter to estimate")
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
-        shared = list(pool.map(_prepare, [(data[:, k], freq, levels, weighting)
-                                          for k in range(len(cols))]))
+        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, weighting))
+                                       for k in range(len(cols))]]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():
             free = int(node["model"].free_mask().sum())
-            if free == 0:
-                raise SpecError(f"candidate {name} has no free parameter to estimate")
             if free > J:
                 raise InputError(f"candidate {name} has {free} free parameters but the signal gives "
                                  f"only {J} wavelet levels")
-        fits: list[dict[str, GMWMResult]] = [{} for _ in cols]
-        for gen in generations:
-            tasks = []
-            for k, sh in enumerate(shared):
-                for name in gen:
-                    model = graph.nodes[name]["model"]
-                    starts, screen = _child_starts(
-                        model, [fits[k][p] for p in graph.predecessors(name)], sh.empirical.wv, freq)
-                    tasks.append(_Task(k, name, model.to_spec(), freq, sh, weighting,
-                                       _seed(seed, k, order[name]), starts, screen))
-            for task, fit in zip(tasks, pool.map(_fit_task, tasks)):
-                fits[task.column][task.name] = fit
-                if bar is not None:
-                    bar.update(1)
+        covs = [pool.submit(_covariance, (data[:, k], J)) if sh.covariance is None else None
+                for k, sh in enumerate(shared)]  # V runs alongside the fits
+        try:
+            fits = _run_fits(pool, graph, shared, freq, weighting, seed, bar)
+        except BaseException:
+            for future in covs:
+                if future is not None:
+                    future.cancel()
+            raise
+        for k, future in enumerate(covs):
+            if future is not None:
+                shared[k] = attrs.evolve(shared[k], covariance=future.result())
+                fits[k] = {n: attrs.evolve(f, covariance=shared[k].covariance) for n, f in fits[k].items()}
 
     results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
                for k in range(len(cols))]
     return results[0] if single else results
+
+
+def _run_fits(pool: Any, graph: nx.DiGraph, shared: list[_Column], freq: float, weighting: str,
+              seed: int, bar: Any) -> list[dict[str, GMWMResult]]:
+    """Fit every (column, candidate) through ``pool.submit``, each as soon as all its parents
+    are fitted (no barrier between generations); results do not depend on completion order."""
+    order = {name: i for i, name in enumerate(graph.nodes)}
+    fits: list[dict[str, GMWMResult]] = [{} for _ in shared]
+    pending: dict[concurrent.futures.Future, tuple[int, str]] = {}
+
+    def submit(k: int, name: str) -> None:
+        model = graph.nodes[name]["model"]
+        starts, screen = _child_starts(model, [fits[k][p] for p in graph.predecessors(name)],
+                                       shared[k].empirical.wv, freq)
+        task = _Task(k, name, model.to_spec(), freq, shared[k], weighting,
+                     _seed(seed, order[name]), starts, screen)
+        pending[pool.submit(_fit_task, task)] = (k, name)
+
+    try:
+        for k in range(len(shared)):
+            for name in graph.nodes:
+                if graph.in_degree(name) == 0:
+                    submit(k, name)
+        while pending:
+            done, _ = concurrent.futures.wait(pending, return_when=concurrent.futures.FIRST_COMPLETED)
+            for future in sorted(done, key=lambda f: (pending[f][0], order[pending[f][1]])):
+                k, name = pending.pop(future)
+                fits[k][name] = future.result()
+                if bar is not None:
+                    bar.update(1)
+                for child in graph.successors(name):
+                    if all(p in fits[k] for p in graph.predecessors(child)):
+                        submit(k, child)
+    except BaseException:
+        for future in pending:
+            future.cancel()
+        raise
+    return [{name: f[name] for name in graph.nodes} for f in fits]
 
 
 def _result(column: str, fits: dict[str, GMWMResult], graph: nx.DiGraph, crit: Any,

@@ -1,0 +1,71 @@
+"""``stochmod select``: automatic model selection per column (GMWM + information criterion)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from stochmod.cli._common import add_input_arguments, load_input, print_json
+from stochmod.fit.selection import DEFAULT_FAMILIES, SELECTION_WEIGHTINGS, select
+
+__all__ = ["register", "run", "add_selection_arguments", "selection_options"]
+
+
+def add_selection_arguments(p: argparse.ArgumentParser) -> None:
+    """Candidate, criterion and weighting options shared by ``select`` and ``calibrate``."""
+    p.add_argument("--candidates", nargs="+", default=None, metavar="SPEC",
+                   help='candidate models, e.g. "GM+WN" "2*GM+WN" (default: every combination '
+                        "of --families, up to --max-gm GMs)")
+    p.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), metavar="F",
+                   help=f"families of the candidate lattice (default: {' '.join(DEFAULT_FAMILIES)})")
+    p.add_argument("--max-gm", type=int, default=3, metavar="K",
+                   help="largest number of GM processes in the lattice (default 3)")
+    p.add_argument("--criterion", default="wvic",
+                   help="selection criterion registered by a plugin (default wvic)")
+    p.add_argument("--weighting", choices=SELECTION_WEIGHTINGS, default="diagonal",
+                   help="GMWM weighting matrix shared by all candidates (default diagonal)")
+    p.add_argument("--levels", type=int, default=None, metavar="J",
+                   help="number of wavelet levels (default: all the signal allows)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the multi-start searches (default 0)")
+
+
+def selection_options(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of :func:`stochmod.select` from the shared options."""
+    families = tuple(args.families)
+    return {
+        "candidates": args.candidates,
+        "families": families,
+        "max_counts": {"GM": args.max_gm} if "GM" in families else None,
+        "criterion": args.criterion,
+        "weighting": args.weighting,
+        "levels": args.levels,
+        "rng": args.seed,
+    }
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``select`` subcommand."""
+    p = subparsers.add_parser(
+        "select",
+        help="select a composite model per column (GMWM fits ranked by an information criterion)",
+        description=(
+            "Fit every candidate model by the GMWM with a common weighting matrix and rank them "
+            "by the wavelet-variance information criterion (objective + optimism), with the "
+            "J-test p-value as goodness of fit. Candidates: --candidates, or every combination "
+            "of --families with up to --max-gm GMs. Units: those of the file."
+        ),
+    )
+    add_input_arguments(p)
+    add_selection_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the selection on every selected column and print the rankings."""
+    rec, freq = load_input(args)
+    results = select(rec.data, freq, names=list(rec.columns), **selection_options(args))
+    if args.json:
+        print_json({"columns": {r.column: r.to_dict() for r in results}, "freq": freq})
+        return 0
+    print("\n\n".join(r.summary() for r in results))
+    return 0
