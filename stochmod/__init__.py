@@ -21,10 +21,11 @@ from stochmod.errors import (
 from stochmod.hookspecs import hookimpl, hookspec
 from stochmod.model import Model, augment_axes, model_from_spec
 from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
+from stochmod.process import PhysicalValue, Process, as_generator, has_theoretical_wv
 from stochmod.registry import get_process, process_names, register_plugin, unregister_plugin
 from stochmod.fit.gmwm import GMWMResult, gmwm
 from stochmod.fit.selection import SelectionResult, candidate_lattice, select
+from stochmod.fit.validation import OctavePSD, ValidationBands, octave_psd, validate
 from stochmod.signal.acf import acf, fit_gm_acf
 from stochmod.signal.allan import AllanVariance, avar
 from stochmod.signal.allan_reading import AllanReading, allan_reading
@@ -56,6 +57,11 @@ __all__ = [
     "units",
     "examples",
     "select",
+    "validate",
+    "ValidationBands",
+    "octave_psd",
+    "OctavePSD",
+    "has_theoretical_wv",
     "SelectionResult",
     "candidate_lattice",
     "to_si",

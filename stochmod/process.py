@@ -30,7 +30,7 @@ from stochmod.params import Parameter, get_domain
 from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
-__all__ = ["Process", "PhysicalValue", "as_generator"]
+__all__ = ["Process", "PhysicalValue", "as_generator", "has_theoretical_wv"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -372,6 +372,15 @@ class Process:
 
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
+
+
+def has_theoretical_wv(process: Process | type[Process]) -> bool:
+    """Whether the family has a theoretical wavelet variance: it overrides :meth:`Process.wv`,
+    or :meth:`Process.psd`, or (stationary) :meth:`Process.autocovariance`. Families without
+    one are fitted by indirect inference (``stochmod.gmwm(..., binding="simulated")``)."""
+    cls = process if isinstance(process, type) else type(process)
+    return (_overrides(cls, "wv") or _overrides(cls, "psd")
+            or (bool(cls.stationary) and _overrides(cls, "autocovariance")))
 
 
 def simulate_block(block: StateSpaceBlock, n: int, rng: np.random.Generator) -> np.ndarray:

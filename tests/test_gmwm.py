@@ -72,3 +72,9 @@ def test_bad_signals_raise():
         stochmod.gmwm(y, "WN", FREQ)
     with pytest.raises(InputError, match="freq"):
         stochmod.gmwm(y[:5], "WN")
+
+
+def test_non_haar_wavelet_needs_the_simulated_binding():
+    x = np.random.default_rng(0).normal(size=2048)
+    with pytest.raises(InputError, match="haar"):
+        stochmod.gmwm(x, "WN", FREQ, wavelet="db4", binding="analytic")

@@ -88,19 +88,25 @@ class _Problem:
         D = m.wv_jacobian(self.levels) @ m.transform_jacobian(theta)
         return D[:, self.mask], m
 
+    # binding function phi(theta) and its Jacobian on the free unconstrained scale
+    # (indirect inference, stochmod.fit.indirect, overrides these two)
+    def phi(self, x: np.ndarray) -> np.ndarray:
+        return self.model(x).wv(self.levels)
+
+    def dphi(self, x: np.ndarray) -> np.ndarray:
+        return self._jac_u(x)[0]
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
-        return self.L @ (self.nu_hat - self.model(x).wv(self.levels))
+        return self.L @ (self.nu_hat - self.phi(x))
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        D, _ = self._jac_u(x)
-        return -self.L @ D
+        return -self.L @ self.dphi(x)
 
     def flat_residuals(self, x: np.ndarray) -> np.ndarray:
-        return 1.0 - self.model(x).wv(self.levels) / self.nu_hat
+        return 1.0 - self.phi(x) / self.nu_hat
 
     def flat_jacobian(self, x: np.ndarray) -> np.ndarray:
-        D, _ = self._jac_u(x)
-        return -D / self.nu_hat[:, None]
+        return -self.dphi(x) / self.nu_hat[:, None]
 
     def objective(self, x: np.ndarray) -> float:
         r = self.residuals(x)
@@ -207,16 +213,7 @@ class GMWMResult:
     @functools.cached_property
     def cov_params(self) -> np.ndarray:
         """Covariance of the free parameters on their natural scale (eqs. 22-23)."""
-        D, W, V = self._jacobian, self.omega, self.wv_covariance
-        A = D.T @ W @ D
-        try:
-            B = np.linalg.solve(A, D.T @ W)
-        except np.linalg.LinAlgError:
-            raise EstimationError(
-                "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
-            ) from None
-        C = B @ V @ B.T
-        return 0.5 * (C + C.T)
+        return _sandwich(self._jacobian, self.omega, self.wv_covariance)
 
     @functools.cached_property
     def std_errors(self) -> np.ndarray:
@@ -234,7 +231,7 @@ class GMWMResult:
         keep = np.flatnonzero(self.empirical.n_coef[: self.levels] / 2.0**levels >= JTEST_MIN_EDF)
         if keep.size <= p:
             return None
-        resid = (self.empirical.wv[: self.levels] - self.model.wv(self.levels))[keep]
+        resid = (self.empirical.wv[: self.levels] - self.model_wv())[keep]
         V = self.wv_covariance[np.ix_(keep, keep)]
         stat = float(resid @ np.linalg.solve(V, resid))
         df = int(keep.size - p)
@@ -333,6 +330,19 @@ class GMWMResult:
         }
 
 
+def _sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """``B V B^T`` with ``B = (D^T W D)^{-1} D^T W`` (eqs. 22-23), symmetrised."""
+    A = D.T @ W @ D
+    try:
+        B = np.linalg.solve(A, D.T @ W)
+    except np.linalg.LinAlgError:
+        raise EstimationError(
+            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
+        ) from None
+    C = B @ V @ B.T
+    return 0.5 * (C + C.T)
+
+
 def _units(model: Model) -> np.ndarray:
     out = []
     for p in model.processes:
@@ -368,6 +378,9 @@ def gmwm(
     bootstrap_reps: int = 100,
     rng: int = 0,
     alpha: float = 0.05,
+    binding: str = "auto",
+    R: int = 10,
+    max_sim: int = 2**20,
 ) -> GMWMResult:
     """Fit a composite model by the GMWM (eq. 20).
 
@@ -402,10 +415,22 @@ def gmwm(
         Seed of every random choice (results reproduce).
     alpha : float
         Significance level of the intervals.
+    binding : {"auto", "analytic", "simulated"}
+        The binding function phi(theta). ``"analytic"``: the families' theoretical WVs;
+        ``"simulated"``: indirect inference (eq. 29), the empirical WV of a series of
+        ``min(R N, max(max_sim, N))`` samples simulated from the model at theta with common
+        random numbers (seed `rng`); ``"auto"`` (default): analytic when every family has a
+        theoretical WV, else only the components without one are simulated (eq. 28 adds
+        the analytic WVs of the others). See :mod:`stochmod.fit.indirect`.
+    R : int
+        Length of the simulated series in multiples of N (indirect inference only).
+    max_sim : int
+        Cap on the simulated length, samples (never below N).
 
     Returns
     -------
     GMWMResult
+        (an :class:`~stochmod.fit.indirect.IndirectGMWMResult` when a component is simulated)
     """
     if weighting not in WEIGHTINGS:
         raise InputError(f"unknown weighting {weighting!r}; choose one of {list(WEIGHTINGS)}")
@@ -435,6 +460,16 @@ def gmwm(
         raise SpecError(f"model {base.name} has no free parameter to estimate")
     if mask.sum() > J:
         raise InputError(f"model {base.name} has {int(mask.sum())} free parameters but only {J} levels")
+    # --- indirect inference hook (stochmod.fit.indirect): None = analytic binding
+    from stochmod.fit.indirect import plan_binding
+
+    plan = plan_binding(base, binding, R=R, max_sim=max_sim, n=emp.n, levels=J, seed=rng,
+                        wavelet=emp.wavelet)
+    if plan is None and emp.wavelet != "haar":
+        raise InputError(
+            f"the analytic GMWM matches Haar wavelet variances; the data's WV uses {emp.wavelet!r}: "
+            "use wavelet='haar' or binding='simulated' (indirect inference with the same wavelet)"
+        )
 
     covariance = None
     if weighting == "diagonal":
@@ -450,36 +485,40 @@ def gmwm(
         omega = weighting_from_covariance(covariance)
     else:  # bootstrap: a first diagonal fit, then the covariance at that fit
         first = gmwm(emp, base, freq, weighting="diagonal", levels=J, n_starts=n_starts,
-                     n_random=n_random, starts=starts, rng=rng)
+                     n_random=n_random, starts=starts, rng=rng, binding=binding, R=R,
+                     max_sim=max_sim)
         covariance = bootstrap_covariance(first.model, emp.n, J, reps=bootstrap_reps, rng=rng,
                                           wavelet=emp.wavelet)
         omega = weighting_from_covariance(covariance)
         starts = (*starts, first.model)
 
-    fit = _search(base, nu_hat, omega, mask, n_starts, n_random, starts, rng)
+    fit = _search(base, nu_hat, omega, mask, n_starts, n_random, starts, rng,
+                  problem_factory=_Problem if plan is None else plan.problem)
     fitted = _canonical(fit["model"])
-    return GMWMResult(
+    result_cls, extra = (GMWMResult, {}) if plan is None else plan.result_type()
+    return result_cls(
         model=fitted, empirical=emp, objective=fit["objective"], weighting=weighting, omega=omega,
         levels=J, converged=fit["converged"], message=fit["message"], n_starts=fit["n_starts"],
         n_evaluations=fit["nfev"], free_names=tuple(np.asarray(fitted.param_names)[mask]),
-        free_mask=mask, alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng,
+        free_mask=mask, alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng, **extra,
     )
 
 
 def _search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
             n_starts: int, n_random: int, starts: Sequence[Model], seed: int,
-            n_refine: int = 3) -> dict[str, Any]:
+            n_refine: int = 3, *, problem_factory: Any = _Problem) -> dict[str, Any]:
     """Multi-start minimisation of eq. 20.
 
     Candidates: the families' guesses, the given starts, `n_starts` seeded perturbations of
     the guesses, and the best of `n_random` random points screened by the objective. Each
     candidate first descends the flattened criterion of eq. 34 (cheap, well scaled); the
     `n_refine` best distinct results (by eq. 20), and every given start as it is, are then
-    refined on eq. 20 itself. The best refined point wins.
+    refined on eq. 20 itself. The best refined point wins. `problem_factory` builds the
+    least-squares problem (``_Problem``, or the simulated binding of indirect inference).
     """
     gen = np.random.default_rng(seed)
     template = base.start(nu_hat)
-    problem = _Problem(template, nu_hat, omega, mask)
+    problem = problem_factory(template, nu_hat, omega, mask)
     candidates = [template.to_unconstrained()[mask]]
     given = []
     for s in starts:
