@@ -309,3 +309,13 @@ def test_real_gyro_x_selection_runs_without_warnings(threads):
     assert [r.model for r in res.ranking] == ["2*GM+WN", "3*GM+WN", "GM+WN", "QN+WN+RW+RR"]
     for parent, child in res.graph.edges:
         assert res.fits[child].objective <= res.fits[parent].objective * (1 + 1e-12)
+
+
+def test_a_component_of_negligible_amplitude_is_not_identified():
+    from stochmod.fit.criteria import identified, negligible_components
+
+    x = np.random.default_rng(7).normal(size=2**14)
+    fit = stochmod.gmwm(x, "WN+QN(Q2=1e-30)", 100.0)
+    assert negligible_components(fit) == ["QN"]
+    assert not identified(fit)
+    assert identified(stochmod.gmwm(x, "WN", 100.0))
