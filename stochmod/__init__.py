@@ -31,6 +31,15 @@ from stochmod.signal.allan import AllanVariance, avar
 from stochmod.signal.allan_reading import AllanReading, allan_reading
 from stochmod.signal.ar_fit import burg, fit_ar, yule_walker
 from stochmod.signal.denoise import denoise
+from stochmod.signal.pipelines import (
+    ModelComparison,
+    acf_gm_model,
+    av_model,
+    avwd_model,
+    compare_models,
+    denoised_ar_model,
+    psd_model,
+)
 from stochmod.signal.psd import psd, psd_reading
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 from stochmod.statespace import StateSpaceBlock
@@ -84,6 +93,13 @@ __all__ = [
     "yule_walker",
     "fit_ar",
     "denoise",
+    "av_model",
+    "avwd_model",
+    "denoised_ar_model",
+    "psd_model",
+    "acf_gm_model",
+    "compare_models",
+    "ModelComparison",
     "StochmodError",
     "InputError",
     "DomainError",

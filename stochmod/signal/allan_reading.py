@@ -50,6 +50,7 @@ __all__ = [
     "AllanReading",
     "allan_reading",
     "TERMS",
+    "DATASHEET_UNITS",
     "GM_CONVENTIONS",
     "GM_PEAK_X",
     "GM_PEAK_AV",
@@ -84,8 +85,8 @@ GM_PEAK_X = 1.8926178329250188
 GM_PEAK_AV = 0.38113865810244997
 #: How ``to_model`` turns (B, Tc) into a GM: "quinchia" (default) or "matched".
 GM_CONVENTIONS = ("quinchia", "matched")
-# datasheet units by the physical kind of the signal unit
-_DATASHEET = {
+#: Datasheet unit of each term, by the physical kind of the signal unit ("rate", "acceleration").
+DATASHEET_UNITS: dict[str, dict[str, str]] = {
     "rate": {"Q": "arcsec", "N": "deg/sqrt(h)", "B": "deg/h", "K": "deg/h^1.5", "R": "deg/h^2"},
     "acceleration": {"Q": "m/s", "N": "m/s/sqrt(h)", "B": "ug", "K": "m/s/h^1.5", "R": "m/s/h^2"},
 }
@@ -217,7 +218,7 @@ class AllanReading:
                 rng = f"{format_number(c.tau_range[0], 3)}-{format_number(c.tau_range[1], 3)}"
                 row = [name, _slope_text(c.slope), c.value, c.low, c.high, c.unit_hint, rng]
                 if kind is not None:
-                    ds_unit = _DATASHEET[kind][name]
+                    ds_unit = DATASHEET_UNITS[kind][name]
                     row += [_to_datasheet(units_mod, c.value, self.unit, name, ds_unit), ds_unit]
             rows.append(row)
         title = (
@@ -306,7 +307,7 @@ def _datasheet_kind(unit: str | None) -> tuple[Any, str | None]:
         kind = units_mod.parse_unit(unit).kind
     except Exception:  # an unparsable unit only loses the datasheet column
         return None, None
-    return (units_mod, kind) if kind in _DATASHEET else (None, None)
+    return (units_mod, kind) if kind in DATASHEET_UNITS else (None, None)
 
 
 def _to_datasheet(units_mod: Any, value: float, unit: str | None, name: str, ds_unit: str) -> float:
