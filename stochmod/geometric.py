@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike
 from stochmod.errors import InputError
 
 __all__ = [
+    "WV_PEAK_X",
     "haar_kernel_value",
     "haar_wv_geometric",
     "haar_wv_geometric_dlog",
@@ -53,6 +54,11 @@ __all__ = [
     "haar_wv_positive",
     "log1p_complex",
 ]
+
+#: ``m u`` at which the Haar WV of a geometric autocovariance ``exp(-u |h|)`` peaks over the
+#: half-width m (slow limit): the maximiser of ``g(x) / x^2``, ``g(x) = 2x - 3 + 4e^-x - e^-2x``
+#: (the Allan-variance peak at tau = 1.89 Tc of a first-order Gauss-Markov process).
+WV_PEAK_X = 1.8926178329250188
 
 # Taylor coefficients: sinh(u) - u = u^3 sum_k u^(2k) / (2k+3)!  and
 # g(x) = 2x - 3 + 4 e^-x - e^-2x = x^3 sum_n (-1)^n (4 - 2^n) / n! x^(n-3), n >= 3.

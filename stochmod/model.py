@@ -201,6 +201,28 @@ class Model:
             procs.append(p)
         return attrs.evolve(self, processes=tuple(procs))
 
+    def start_alternatives(self, wv: ArrayLike) -> list[Model]:
+        """Variants of :meth:`start`: one per alternative guess a free family offers
+        (:meth:`Process.start_alternatives`), the other components at their start."""
+        freq = self._freq()
+        wv = np.asarray(wv, dtype=np.float64)
+        template = self.start(wv)
+        counts = Counter(p.family for p in self.processes)
+        seen: Counter[str] = Counter()
+        variants = []
+        for i, p in enumerate(self.processes):
+            index = seen[p.family]
+            seen[p.family] += 1
+            if not p.is_free:
+                continue
+            fixed = {k: v for k, v in p.values().items() if v is not None}
+            for guess in p.start_alternatives(wv, freq, index=index, count=counts[p.family]):
+                guess = guess.with_values(**fixed) if fixed else guess
+                procs = list(template.processes)
+                procs[i] = guess
+                variants.append(attrs.evolve(template, processes=tuple(procs)))
+        return variants
+
     # ------------------------------------------------------------------ theory
     def wv(self, levels: int, wavelet: str = "haar") -> np.ndarray:
         """Theoretical wavelet variance at levels 1..`levels` (sum over processes), unit^2."""

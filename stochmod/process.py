@@ -238,6 +238,19 @@ class Process:
         return wv_from_psd(lambda f: self.psd(f, freq), levels, freq, wavelet=wavelet,
                            breakpoints=self.psd_breakpoints(freq))
 
+    def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
+                               wavelet: str = "haar") -> np.ndarray | None:
+        """Covariance (J x J, u^4) of this component's empirical WV that :meth:`psd` does not
+        describe, or None (default).
+
+        None means the family is a Gaussian process whose spectral density :meth:`psd` is: a
+        composite's WV covariance then comes from its summed PSD
+        (:func:`stochmod.theory.wv_covariance_from_psd`). A family whose WV varies from
+        record to record in another way (a random ramp: one slope per record) returns its own.
+        `n_coef` are the numbers of coefficients M_j at levels 1..J.
+        """
+        return None
+
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """Jacobian of :meth:`wv` with respect to :meth:`vector`, shape (levels, n_params).
 
@@ -358,6 +371,17 @@ class Process:
         when given, perturbs the guess for multi-start searches.
         """
         raise NotImplementedError(f"{self.family} provides no starting values")
+
+    def start_alternatives(self, wv: np.ndarray, freq: float, *, index: int = 0,
+                           count: int = 1) -> tuple[Process, ...]:
+        """Other deterministic starting guesses worth a local search (default: none).
+
+        A family whose :meth:`start` reads the WV in one way that another component of a
+        composite can mislead (e.g. AR's ratio of the two finest levels under white noise)
+        offers guesses read in other ways; the GMWM search tries each, the rest of the model
+        at its :meth:`start`. Same arguments as :meth:`start`, without `rng`.
+        """
+        return ()
 
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """The parameters in physical terms (correlation time, noise density ...)."""

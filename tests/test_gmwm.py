@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError, SpecError
+from stochmod import gmwm
+from stochmod.errors import EstimationError, InputError, SpecError
 
 FREQ = 100.0
 
@@ -78,3 +79,57 @@ def test_non_haar_wavelet_needs_the_simulated_binding():
     x = np.random.default_rng(0).normal(size=2048)
     with pytest.raises(InputError, match="haar"):
         stochmod.gmwm(x, "WN", FREQ, wavelet="db4", binding="analytic")
+
+
+def test_optimal_weighting_works_at_the_default_levels():
+    """Eq. 17's V is indefinite at the deepest levels of 2^16 samples; with those levels
+    decoupled the optimal fit uses all of them and reaches the truth's objective."""
+    truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1e-6) + GM(beta=0.02, sigma2=1e-7) + WN(sigma2=3e-6)", 100.0)
+    x = truth.simulate(2**16, rng=3)
+    from stochmod.fit.weighting import weighting_from_covariance
+    from stochmod.signal.wv_covariance import wv_covariance
+
+    with pytest.raises(EstimationError, match="not positive definite"):
+        weighting_from_covariance(wv_covariance(x, stochmod.wvar(x, 100.0).wv.size))
+    fit = gmwm(x, "2*GM+WN", 100.0, weighting="optimal")
+    assert fit.levels == stochmod.wvar(x, 100.0).wv.size
+    r = fit.empirical.wv - truth.wv(fit.levels)
+    assert fit.objective <= float(r @ fit.omega @ r)
+    assert np.all(fit.std_errors > 0)
+    for est, true in zip(fit.parameters(), truth.vector()):
+        assert est.low <= true <= est.high or abs(est.value - true) <= 4 * est.std_error
+
+
+def test_indefinite_covariance_is_refused_not_clipped():
+    truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=3e-6)", 100.0)
+    fit = gmwm(truth.simulate(2**12, rng=0), "GM+WN", 100.0)
+    fit.__dict__["wv_covariance"] = -np.eye(fit.levels) * 1e-12  # a broken V
+    with pytest.raises(EstimationError, match="negative variances"):
+        fit.std_errors
+
+
+def test_ar_ladder_start_spreads_real_roots_over_the_levels():
+    from stochmod.geometric import WV_PEAK_X
+
+    wv = 1.0 / 2.0 ** np.arange(17) + 1e-3  # white noise over a flat floor
+    (alt,) = stochmod.AR(order=2).start_alternatives(wv, 100.0)
+    levels = 1 + 16 * np.array([1, 2]) / 3
+    roots = np.sort(np.real(np.roots(np.concatenate([[1.0], -np.asarray(alt.phi)]))))
+    np.testing.assert_allclose(roots, np.exp(-WV_PEAK_X / 2.0 ** (levels - 1)), rtol=1e-12)
+    j = round(levels[-1])
+    assert alt.wv(j, 100.0)[j - 1] == pytest.approx(wv[j - 1], rel=1e-12)
+
+
+def test_a_custom_weighting_matrix_is_used_as_given():
+    truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=3e-6)", FREQ)
+    x = truth.simulate(2**13, rng=5)
+    diag = gmwm(x, "GM+WN", FREQ)
+    custom = gmwm(x, "GM+WN", FREQ, weighting=diag.omega)
+    assert custom.weighting == "custom"
+    np.testing.assert_array_equal(custom.omega, diag.omega)
+    np.testing.assert_allclose(custom.model.vector(), diag.model.vector(), rtol=1e-8)
+    J = diag.levels
+    for bad, match in [(np.eye(J + 1), "shape"), (-np.eye(J), "positive definite"),
+                       (np.triu(np.ones((J, J))), "symmetric"), (np.full((J, J), np.nan), "non-finite")]:
+        with pytest.raises(InputError, match=match):
+            gmwm(x, "GM+WN", FREQ, weighting=bad)

@@ -54,3 +54,90 @@ def test_bad_input():
         wv_covariance(np.array([1.0, np.nan, 2.0]))
     with pytest.raises(InputError):
         wv_covariance(np.zeros(16), 10)
+
+
+# ----------------------------------------------------------------- covariance under a model
+from stochmod import model_from_spec  # noqa: E402
+from stochmod.fit.weighting import (  # noqa: E402
+    chi2_variance,
+    decoupled_covariance,
+    equivalent_dof,
+    model_covariance,
+)
+from stochmod.theory import wv_covariance_from_psd  # noqa: E402
+
+EXACT_N, EXACT_J = 1024, 6
+
+
+def _exact_gaussian_covariance(cov_x: np.ndarray, levels: int) -> np.ndarray:
+    """Finite-sample covariance of the unbiased MODWT WVs of a Gaussian vector with covariance
+    `cov_x`: each WV is ``x' H_j' H_j x / M_j``, so ``cov = 2 ||H_j S H_k'||_F^2 / (M_j M_k)``
+    (independent of the frequency-domain formula)."""
+    n = cov_x.shape[0]
+    H = [np.array([modwt_coefficients(e, j) for e in np.eye(n)]).T for j in range(1, levels + 1)]
+    return np.array([[2.0 * np.sum((a @ cov_x @ b.T) ** 2) / (a.shape[0] * b.shape[0]) for b in H]
+                     for a in H])
+
+
+@pytest.mark.parametrize("spec", ["GM(beta=20.0, sigma2=1.0) + WN(sigma2=0.5)",
+                                  "WN(sigma2=1.0) + RW(sigma2=0.01)",
+                                  "AR(phi=[1.5, -0.75], sigma2=1.0)"])
+def test_model_covariance_matches_exact_quadratic_forms(spec):
+    """The large-sample formula against the exact covariance of N = 1024 samples: off by the
+    boundary terms, O(2^j / M_j), and the quadrature's 1e-3."""
+    model = model_from_spec(spec, 100.0)
+    t = np.arange(EXACT_N)
+    if "RW" in spec:  # x_t = walk from 0 (increments 0.01) + white noise
+        cov_x = 0.01 * np.minimum.outer(t + 1, t + 1) + np.eye(EXACT_N)
+    else:
+        cov_x = model.autocovariance(np.abs(np.subtract.outer(t, t)))
+    exact = _exact_gaussian_covariance(cov_x, EXACT_J)
+    n_coef = EXACT_N - 2 ** np.arange(1, EXACT_J + 1) + 1
+    got = model_covariance(model, n_coef)
+    deeper = np.maximum.outer(np.arange(1, EXACT_J + 1), np.arange(1, EXACT_J + 1))
+    tol = 0.5 * 2.0**deeper / np.minimum.outer(n_coef, n_coef) + 5e-3
+    assert np.all(np.abs(got / exact - 1) <= tol), got / exact - 1
+    np.testing.assert_array_equal(got, got.T)
+
+
+def test_haar_fast_path_agrees_with_the_lobe_by_lobe_quadrature():
+    model = model_from_spec("GM(beta=2.0, sigma2=1e-6) + GM(beta=0.02, sigma2=1e-7) + WN(sigma2=3e-6)", 100.0)
+    n_coef = 2**16 - 2 ** np.arange(1, 13) + 1
+    fast = wv_covariance_from_psd(model.psd, n_coef, 100.0)
+    slow = wv_covariance_from_psd(model.psd, n_coef, 100.0, wavelet="db1")  # = Haar, generic path
+    np.testing.assert_allclose(fast, slow, rtol=5e-3)
+
+
+def test_random_ramp_adds_its_chi2_slope_covariance():
+    """One slope per record: the RR part of the covariance is 2 wv wv' whatever N; checked
+    against the sample covariance of simulated records at the deep levels RR dominates."""
+    model = model_from_spec("RR(omega=1e-3) + WN(sigma2=1.0)", 1.0)
+    n, J = 4096, 10
+    sims = np.array([wvar(model.simulate(n, np.random.default_rng([4, r])), 1.0, levels=J).wv
+                     for r in range(3000)])
+    got = model_covariance(model, n - 2 ** np.arange(1, J + 1) + 1)
+    rr = model.processes[0].wv(J, 1.0)
+    np.testing.assert_allclose(got[-3:, -3:], np.cov(sims, rowvar=False)[-3:, -3:], rtol=0.15)
+    assert got[-1, -1] >= 2 * rr[-1] ** 2
+
+
+def test_decoupled_covariance_keeps_the_well_estimated_block():
+    rng = np.random.default_rng(0)
+    J = 8
+    A = rng.normal(size=(J, J))
+    V = A @ A.T
+    wv = np.linspace(1.0, 2.0, J)
+    level = np.arange(1, J + 1)
+    n_coef = 1000 - 2**level + 1  # EDF 500 ... 3.9: the last level has fewer than 4
+    chi2 = chi2_variance(wv, n_coef, level)
+    assert int(np.sum(equivalent_dof(n_coef, level) >= 4.0)) == 7
+    out = decoupled_covariance(V, wv, n_coef, level)
+    np.testing.assert_array_equal(out[:7, :7], V[:7, :7])
+    assert out[7, 7] == chi2[7] and np.all(out[7, :7] == 0) and np.all(out[:7, 7] == 0)
+    # a covariance that makes the coupled block indefinite: its deepest level goes too
+    V[5, 6] = V[6, 5] = 10 * np.sqrt(V[5, 5] * V[6, 6])
+    out = decoupled_covariance(V, wv, n_coef, level)
+    np.testing.assert_array_equal(out[:6, :6], V[:6, :6])
+    np.testing.assert_array_equal(np.diag(out)[6:], chi2[6:])
+    assert np.all(out[6:, :6] == 0)
+    assert np.all(np.linalg.eigvalsh(out) > 0)

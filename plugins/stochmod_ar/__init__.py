@@ -24,6 +24,7 @@ composes whole numbers of steps for filter steps that are multiples of ``1/freq`
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from fractions import Fraction
@@ -38,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_parts
+from stochmod.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter, get_domain
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -53,6 +54,7 @@ _SIGMA2 = Parameter("sigma2", "positive", "u^2", "innovation variance per sample
 _CHUNK = 1 << 15
 _EPS = 2.0 ** -52
 _PRECISE_ABOVE = 1e-12  # estimated relative rounding error above which residues go double-double
+_JACOBIAN_RTOL = 1e-10  # estimated relative error at which the Jacobian step ladder stops
 
 
 def _check_order(order: object) -> int:
@@ -194,8 +196,9 @@ class AR(Process):
         accuracy). The margin ``min(1, min_k |P(z_k / |z_k|)| / p)`` is the distance in
         phi-space to non-stationarity (``(1 - |z|) |P'(z)|`` for a simple root, the square of
         the distance for a double one), the scale on which the WV varies with phi; a step is
-        divided by 8 until the perturbed coefficients stay stationary. Relative accuracy
-        ~1e-9 typically, ~1e-6 next to a double root close to the unit circle.
+        divided by 8 until the perturbed coefficients stay stationary. The ladder stops at the
+        first step whose estimated error is below 1e-10 relative at every level. Relative
+        accuracy ~1e-9 typically, ~1e-6 next to a double root close to the unit circle.
         """
         freq = check_freq(freq)
         base = self.wv(levels, freq)
@@ -209,6 +212,8 @@ class AR(Process):
             hi, lo = phi.copy(), phi.copy()
             hi[i] += step
             lo[i] -= step
+            if hi[i] == lo[i]:  # step below the coefficient's ulp: not a difference
+                return np.full(levels, np.nan)
             up = AR(phi=hi, sigma2=self.sigma2).wv(levels, freq)
             down = AR(phi=lo, sigma2=self.sigma2).wv(levels, freq)
             return (up - down) / (hi[i] - lo[i])
@@ -217,7 +222,7 @@ class AR(Process):
         for i in range(self.order):
             best = np.full(levels, np.inf)
             col = np.zeros(levels)
-            for rel in (0.3, 1e-2, 1e-4):
+            for rel in (1e-2, 0.3, 1e-4):  # the middle step first: usually enough
                 h = rel * scale
                 while True:
                     try:
@@ -226,9 +231,11 @@ class AR(Process):
                     except DomainError:
                         h /= 8.0
                 err = np.abs(fine - coarse) / 3.0 + 1e-12 * np.abs(base) / h
-                better = err < best
+                better = err < best  # False where a step was unresolvable (NaN)
                 col = np.where(better, (4.0 * fine - coarse) / 3.0, col)
                 best = np.minimum(err, best)
+                if np.all(best <= _JACOBIAN_RTOL * np.abs(col)):
+                    break
             cols.append(col)
         cols.append(base / self.sigma2)
         return np.column_stack(cols)
@@ -325,12 +332,16 @@ class AR(Process):
             raise InputError(f"index must be < count = {count}, got {index}")
         if not np.all(wv > 0):
             raise InputError("wv must be positive at every level to start AR")
+        if rng is not None and rng.random() < 0.5:  # half the perturbed starts: the ladder
+            levels = _ladder_levels(wv.size, self.order, index, count)
+            levels = np.clip(levels + rng.normal(0.0, 1.0, levels.size), 1.0, wv.size)
+            return self._real_roots_start(wv, levels)
         if index == 0 and wv.size >= 2:
             r = _ar1_from_ratio(float(wv[1] / wv[0]))
             j = 1
         else:
             j = 1 + round((wv.size - 1) * (index + 1) / (count + 1))
-            r = math.exp(-1.8926178329250188 / 2.0 ** (j - 1))
+            r = math.exp(-WV_PEAK_X / 2.0 ** (j - 1))
         if rng is not None:
             r = math.tanh(math.atanh(r) + rng.normal(0.0, 0.3))
         log_r = math.log(abs(r)) if r != 0 else -math.inf
@@ -339,6 +350,36 @@ class AR(Process):
         if rng is not None:
             sigma2 *= float(np.exp(rng.normal(0.0, 0.5)))
         phi = [r] + [0.0] * (self.order - 1)
+        return self.with_values(phi=phi, sigma2=sigma2)
+
+    def start_alternatives(self, wv: np.ndarray, freq: float, *, index: int = 0,
+                           count: int = 1) -> tuple[AR, ...]:
+        """The ladder guess: p real roots placed like GM starts over the levels.
+
+        The ratio start of :meth:`start` reads the two finest levels, where white noise (or a
+        faster component) usually dominates in a composite model. Here the k-th root of the
+        `index`-th AR of `count` is ``z_k = exp(-PEAK_X / m_k)``, whose WV peaks at level
+        ``j_k = 1 + (J-1)(index p + k + 1) / (count p + 1)`` (``m_k = 2^(j_k - 1)``), and sigma2
+        makes the AR's WV equal the empirical one at the deepest of these levels.
+        """
+        wv = as_signal(wv, name="wv", min_length=1)
+        check_freq(freq)
+        if not np.all(wv > 0):
+            raise InputError("wv must be positive at every level to start AR")
+        return (self._real_roots_start(wv, _ladder_levels(wv.size, self.order, index, count)),)
+
+    def _real_roots_start(self, wv: np.ndarray, levels: np.ndarray) -> AR:
+        """AR with real roots peaking at the (fractional) `levels`, matched at the deepest."""
+        roots = np.exp(-WV_PEAK_X / 2.0 ** (np.asarray(levels, float) - 1.0))
+        while True:  # rounding of the coefficients may leave a root on the circle: shrink
+            try:
+                unit = AR(phi=-np.poly(roots)[1:], sigma2=1.0)
+                break
+            except DomainError:
+                roots = roots * roots
+        phi = unit.phi
+        j = int(round(float(np.max(levels))))
+        sigma2 = float(wv[j - 1]) / float(unit.wv(j, 1.0)[j - 1])
         return self.with_values(phi=phi, sigma2=sigma2)
 
     @classmethod
@@ -360,6 +401,7 @@ class AR(Process):
         }
 
 
+@functools.lru_cache(maxsize=512)
 def _stationary_roots(phi: tuple[float, ...]) -> ARRoots:
     """The refined roots, after checks that decide stationarity for the binary coefficients:
     ``P(1) = 1 - sum phi > 0`` and ``(-1)^p P(-1) > 0`` exactly (fractions), and every refined
@@ -377,6 +419,13 @@ def _stationary_roots(phi: tuple[float, ...]) -> ARRoots:
             f"P(1) = {float(at_one):.3g}, (-1)^p P(-1) = {float(at_minus_one):.3g})"
         )
     return roots
+
+
+def _ladder_levels(n_levels: int, order: int, index: int, count: int) -> np.ndarray:
+    """Fractional levels of the `order` roots of the `index`-th AR of `count`, spread evenly
+    over levels 1..`n_levels` (like GM starts: the first ones finest)."""
+    k = np.arange(order) + index * order + 1
+    return 1.0 + (n_levels - 1) * k / (count * order + 1)
 
 
 def _ar1_from_ratio(ratio: float) -> float:

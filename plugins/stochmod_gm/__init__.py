@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError
-from stochmod.geometric import haar_wv_positive
+from stochmod.geometric import WV_PEAK_X, haar_wv_positive
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -42,9 +42,8 @@ from stochmod.units import BI_FACTOR, bi_floor
 
 __all__ = ["GM", "PEAK_X", "stochmod_processes"]
 
-#: ``m beta / freq`` at which a GM's Haar WV peaks over the levels (slow limit): the maximiser of
-#: ``g(x) / x^2`` with ``g(x) = 2x - 3 + 4e^-x - e^-2x`` (the Allan-variance peak at tau = 1.89 Tc).
-PEAK_X = 1.8926178329250188
+#: ``m beta / freq`` at which a GM's Haar WV peaks over the levels (slow limit).
+PEAK_X = WV_PEAK_X
 
 
 def _positive(value: object, what: str) -> float:

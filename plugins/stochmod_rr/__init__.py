@@ -101,6 +101,14 @@ class RR(Process):
         m = _half_widths(check_positive_int(levels, name="levels"))
         return (0.5 * self.omega * m * m)[:, None]
 
+    def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
+                               wavelet: str = "haar") -> np.ndarray:
+        """``2 wv wv^T`` (u^4): one slope s per record, so the ramp's empirical WV is
+        ``s^2 m^2 mu^2`` at every level, ``wv * chi2(1)`` fully correlated across levels,
+        however long the record (its PSD is nominal and says nothing of this)."""
+        wv = self.wv(np.size(n_coef), freq, wavelet)
+        return 2.0 * np.outer(wv, wv)
+
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Nominal two-sided rate-ramp PSD ``R^2 / (2 (2 pi |f|)^3)``, R = omega freq (u^2/Hz).
 

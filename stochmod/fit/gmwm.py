@@ -11,6 +11,7 @@ the global optimum is found reliably.
 from __future__ import annotations
 
 import functools
+import math
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -21,8 +22,14 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import EstimationError, InputError, SpecError
-from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, weighting_from_covariance
+from stochmod.errors import DomainError, EstimationError, InputError, SpecError
+from stochmod.fit.weighting import (
+    WEIGHTINGS,
+    chi2_variance,
+    data_covariance,
+    model_covariance,
+    weighting_from_covariance,
+)
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process, as_generator
 from stochmod.reporting import format_table
@@ -31,7 +38,9 @@ from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 __all__ = ["gmwm", "GMWMResult", "JTest", "ParameterEstimate"]
 
 #: Smallest equivalent degrees of freedom M_j / 2^j of a level used by the J-test.
-JTEST_MIN_EDF = 8.0
+JTEST_MIN_EDF = 16.0
+#: Eigenvalues of the residual correlation below this fraction of the largest count as fitted.
+_JTEST_RANK_RTOL = 1e-3
 
 _BOUND = 300.0  # |unconstrained| bound: keeps exp() finite while allowing any realistic scale
 
@@ -194,16 +203,28 @@ class GMWMResult:
         """Covariance ``V`` of the empirical WV used for inference (J x J), unit^4.
 
         The optimal or bootstrap weighting's own V; otherwise the asymptotic estimator of
-        eq. 17 on the signal, or a parametric bootstrap at the fit when only a WV was given.
+        eq. 17 on the signal with the deep levels decoupled
+        (:func:`stochmod.fit.weighting.decoupled_covariance`), or a parametric bootstrap at
+        the fit when only a WV was given.
         """
         if self._covariance is not None:
             return self._covariance
         if self._signal is not None:
-            from stochmod.signal.wv_covariance import wv_covariance
-
-            return wv_covariance(self._signal, self.levels, wavelet=self.empirical.wavelet)
+            return data_covariance(self._signal, self.empirical, self.levels)
         return bootstrap_covariance(self.model, self.empirical.n, self.levels,
                                     reps=100, rng=self._rng_seed, wavelet=self.empirical.wavelet)
+
+    @functools.cached_property
+    def null_wv_covariance(self) -> np.ndarray:
+        """Covariance of the empirical WV if the fitted model were true (J x J, unit^4):
+        :func:`stochmod.fit.weighting.model_covariance` at the estimate, free of the
+        estimation noise of eq. 17 at deep levels; the J-test's V. Falls back to
+        :attr:`wv_covariance` for a family without a PSD."""
+        try:
+            return model_covariance(self.model, self.empirical.n_coef[: self.levels],
+                                    self.empirical.wavelet)
+        except (NotImplementedError, EstimationError):
+            return self.wv_covariance
 
     @functools.cached_property
     def _jacobian(self) -> np.ndarray:
@@ -218,24 +239,64 @@ class GMWMResult:
     @functools.cached_property
     def std_errors(self) -> np.ndarray:
         """Standard errors of the free parameters (natural scale)."""
-        return np.sqrt(np.clip(np.diag(self.cov_params), 0, None))
+        var = np.diag(self.cov_params)
+        if np.any(var < -1e-10 * np.max(np.abs(var))):
+            raise EstimationError(
+                f"negative variances {var.tolist()} for {list(self.free_names)}: the "
+                "wavelet-variance covariance is not positive semi-definite"
+            )
+        return np.sqrt(np.clip(var, 0.0, None))  # clip round-off only
 
     @functools.cached_property
     def jtest(self) -> JTest | None:
-        """J-test of eq. 27 with V the WV covariance, on the levels whose equivalent degrees of
-        freedom ``M_j / 2^j`` are at least :data:`JTEST_MIN_EDF` (deeper levels have too few
-        independent coefficients for V to be estimated, which would inflate the statistic);
-        None when no more levels than free parameters remain."""
-        p = int(self.free_mask.sum())
-        levels = self.empirical.levels[: self.levels]
-        keep = np.flatnonzero(self.empirical.n_coef[: self.levels] / 2.0**levels >= JTEST_MIN_EDF)
-        if keep.size <= p:
+        """J-test of eq. 27, valid for any weighting.
+
+        At the estimate the residual is ``r = nu_hat - nu(theta_hat) ~ P e`` with
+        ``P = I - D (D' Omega D)^{-1} D' Omega`` and ``e`` the WV's error of covariance V, so
+        ``r' (P V P')^+ r ~ chi2`` with as many degrees of freedom as the rank (Hansen's
+        statistic ``r' V^{-1} r`` is the special case of the optimal weighting; evaluated at
+        another weighting's estimate it over-rejects). The statistic uses the levels whose
+        equivalent degrees of freedom ``M_j / 2^j`` are at least :data:`JTEST_MIN_EDF` (their
+        WV is close to normal); df is the rank of ``P V P'`` on those levels (eigenvalues of
+        its correlation form above 1e-3 of the largest); the parameters of a component of
+        negligible amplitude (on the boundary, :func:`~stochmod.fit.criteria.negligible_components`)
+        do not count as fitted. V is :attr:`null_wv_covariance`, the
+        covariance under the fitted model: with the eq. 17 estimate, whose error the inverse
+        amplifies, the test rejects a true model about twice as often as its level says.
+        None when df < 1.
+        """
+        from stochmod.fit.criteria import negligible_components
+
+        # a component whose amplitude ran to zero sits on the boundary: its directions are
+        # not fitted (the estimate could not go below zero), so they stay in the residual
+        dropped = set(negligible_components(self))
+        owner = np.repeat(self.model.labels, [proc.n_params for proc in self.model.processes])
+        fitted = ~np.isin(owner[self.free_mask], list(dropped))
+        p = int(fitted.sum())
+        J = self.levels
+        levels = self.empirical.levels[:J]
+        keep = np.flatnonzero(self.empirical.n_coef[:J] / 2.0**levels >= JTEST_MIN_EDF)
+        df = min(keep.size, J - p)
+        if df < 1:
             return None
-        resid = (self.empirical.wv[: self.levels] - self.model_wv())[keep]
-        V = self.wv_covariance[np.ix_(keep, keep)]
-        stat = float(resid @ np.linalg.solve(V, resid))
-        df = int(keep.size - p)
-        return JTest(stat, df, float(stats.chi2.sf(stat, df)))
+        D, W, V = self._jacobian[:, fitted], self.omega, self.null_wv_covariance
+        try:
+            P = np.eye(J) - D @ np.linalg.solve(D.T @ W @ D, D.T @ W)
+        except np.linalg.LinAlgError:
+            return None  # parameters not identified: no residual covariance to test against
+        C = (P @ V @ P.T)[np.ix_(keep, keep)]
+        r = (self.empirical.wv[:J] - self.model_wv())[keep]
+        scale = np.sqrt(np.diag(V)[keep])  # units: work on the correlation scale
+        evals, evecs = np.linalg.eigh(C / np.outer(scale, scale))
+        # directions the fit nearly absorbs carry almost no residual variance, estimated
+        # with V's error: they count as fitted (rank at a relative tolerance)
+        df = min(df, int(np.sum(evals > _JTEST_RANK_RTOL * evals[-1])))
+        if df < 1:
+            return None
+        evals, evecs = evals[-df:], evecs[:, -df:]
+        z = evecs.T @ (r / scale)
+        stat = float(np.sum(z * z / evals))
+        return JTest(stat, int(df), float(stats.chi2.sf(stat, df)))
 
     def parameters(self) -> list[ParameterEstimate]:
         """Canonical parameters with standard errors and intervals.
@@ -248,12 +309,8 @@ class GMWMResult:
         units = _units(self.model)[self.free_mask]
         out = []
         for name, v, se, unit in zip(self.free_names, vec, self.std_errors, units):
-            if v > 0:
-                f = np.exp(min(z * se / v, 700.0))
-                lo, hi = v / f, v * f
-            else:
-                lo, hi = v - z * se, v + z * se
-            out.append(ParameterEstimate(name, float(v), float(se), float(lo), float(hi), unit))
+            lo, hi = _interval(v, se, z)
+            out.append(ParameterEstimate(name, float(v), float(se), lo, hi, unit))
         return out
 
     def physical(self) -> list[ParameterEstimate]:
@@ -271,23 +328,10 @@ class GMWMResult:
             start += k
             base = proc.physical(freq)
             for name, pv in base.items():
-                grad = np.zeros(k)
-                for i in range(k):
-                    h = 1e-6 * max(abs(vec[i]), 1e-300)
-                    up, dn = vec.copy(), vec.copy()
-                    up[i] += h
-                    dn[i] -= h
-                    try:
-                        grad[i] = (proc.from_vector(up).physical(freq)[name].value
-                                   - proc.from_vector(dn).physical(freq)[name].value) / (2 * h)
-                    except Exception:  # domain edge: one-sided
-                        grad[i] = (proc.from_vector(up).physical(freq)[name].value - pv.value) / h
-                se = float(np.sqrt(max(grad @ Cp @ grad, 0.0)))
-                if pv.value > 0:
-                    f = np.exp(min(z * se / pv.value, 700.0))
-                    lo, hi = pv.value / f, pv.value * f
-                else:
-                    lo, hi = pv.value - z * se, pv.value + z * se
+                grad = np.array([_physical_derivative(proc, vec, i, name, pv.value, freq)
+                                 for i in range(k)])
+                se = float(np.sqrt(max(grad @ Cp @ grad, 0.0)))  # NaN when grad is unknown
+                lo, hi = _interval(pv.value, se, z)
                 out.append(ParameterEstimate(f"{label}.{name}", pv.value, se, lo, hi, pv.unit))
         return out
 
@@ -330,17 +374,63 @@ class GMWMResult:
         }
 
 
+def _physical_derivative(proc: Process, vec: np.ndarray, i: int, name: str, value: float,
+                         freq: float) -> float:
+    """d physical[name] / d vec[i] by differences with a relative step 1e-6: central, or
+    one-sided next to the domain's edge (a unit-root AR, a GM corner at Nyquist); NaN when
+    the physical value is not defined on either side."""
+    h = 1e-6 * max(abs(vec[i]), 1e-300)
+
+    def at(step: float) -> float:
+        moved = vec.copy()
+        moved[i] += step
+        return proc.from_vector(moved).physical(freq)[name].value
+
+    for lo, hi in ((-h, h), (-h, 0.0), (0.0, h)):
+        try:
+            a = value if lo == 0.0 else at(lo)
+            b = value if hi == 0.0 else at(hi)
+        except (DomainError, ArithmeticError, ValueError, EstimationError):
+            continue
+        d = (b - a) / (hi - lo)
+        if np.isfinite(d):
+            return float(d)
+    return math.nan
+
+
+def _interval(value: float, se: float, z: float) -> tuple[float, float]:
+    """Interval ``value */ exp(z se / value)`` (delta method on the log scale) for a positive
+    value, so that it stays positive; ``value -+ z se`` otherwise. An upper end beyond the
+    float range is inf."""
+    value, se = float(value), float(se)
+    if not value > 0:
+        return value - z * se, value + z * se
+    r = z * se / value
+    log_hi = math.log(value) + r
+    hi = math.exp(log_hi) if log_hi < 709.0 else math.inf
+    return math.exp(math.log(value) - r), hi
+
+
 def _sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """``B V B^T`` with ``B = (D^T W D)^{-1} D^T W`` (eqs. 22-23), symmetrised."""
-    A = D.T @ W @ D
+    """``B V B^T`` with ``B = (D^T W D)^{-1} D^T W`` (eqs. 22-23), symmetrised.
+
+    Computed with D's columns scaled to unit norm (a parameter the WV barely sees has a tiny
+    column and a huge row of B), then scaled back: a variance beyond the float range is inf.
+    """
+    norms = np.linalg.norm(D, axis=0)
+    if not np.all(np.isfinite(norms) & (norms > 0)):
+        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
+    Ds = D / norms
     try:
-        B = np.linalg.solve(A, D.T @ W)
+        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
     except np.linalg.LinAlgError:
         raise EstimationError(
             "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
         ) from None
-    C = B @ V @ B.T
-    return 0.5 * (C + C.T)
+    Cs = Bs @ V @ Bs.T
+    Cs = 0.5 * (Cs + Cs.T)
+    with np.errstate(over="ignore"):
+        return Cs / np.outer(norms, norms)
 
 
 def _units(model: Model) -> np.ndarray:
@@ -369,7 +459,7 @@ def gmwm(
     model: Model | Process | str | dict,
     freq: float | None = None,
     *,
-    weighting: str = "diagonal",
+    weighting: str | ArrayLike = "diagonal",
     levels: int | None = None,
     wavelet: str = "haar",
     n_starts: int = 4,
@@ -394,11 +484,12 @@ def gmwm(
         held fixed, free ones are estimated.
     freq : float
         Sampling frequency, Hz (taken from `data` when it is a WaveletVariance).
-    weighting : {"diagonal", "optimal", "bootstrap", "identity"}
+    weighting : {"diagonal", "optimal", "bootstrap", "identity"} or array_like (J, J)
         ``"diagonal"``: inverse chi-square variances of the empirical WV (fast default);
         ``"optimal"``: inverse of the full asymptotic covariance of eq. 17 (needs the signal);
         ``"bootstrap"``: inverse of a parametric-bootstrap covariance (eq. 35) at a first
-        diagonal fit, then refitted; ``"identity"``.
+        diagonal fit, then refitted; ``"identity"``; or a symmetric positive definite
+        (J, J) matrix, used as Omega as given (``result.weighting == "custom"``).
     levels : int, optional
         Number of levels J (default: all the signal allows).
     wavelet : str
@@ -432,8 +523,12 @@ def gmwm(
     GMWMResult
         (an :class:`~stochmod.fit.indirect.IndirectGMWMResult` when a component is simulated)
     """
-    if weighting not in WEIGHTINGS:
-        raise InputError(f"unknown weighting {weighting!r}; choose one of {list(WEIGHTINGS)}")
+    custom = None
+    if not isinstance(weighting, str):
+        custom, weighting = np.array(weighting, dtype=np.float64), "custom"
+    elif weighting not in WEIGHTINGS:
+        raise InputError(f"unknown weighting {weighting!r}; choose one of {list(WEIGHTINGS)} "
+                         "or pass a (J, J) matrix")
     signal = None
     if isinstance(data, WaveletVariance):
         emp = data
@@ -472,16 +567,16 @@ def gmwm(
         )
 
     covariance = None
-    if weighting == "diagonal":
+    if custom is not None:
+        omega = _checked_omega(custom, J)
+    elif weighting == "diagonal":
         omega = np.diag(1.0 / chi2_variance(nu_hat, emp.n_coef[:J], emp.levels[:J]))
     elif weighting == "identity":
         omega = np.eye(J)
     elif weighting == "optimal":
         if signal is None:
             raise InputError("weighting='optimal' needs the signal, not only its wavelet variance")
-        from stochmod.signal.wv_covariance import wv_covariance
-
-        covariance = wv_covariance(signal, J, wavelet=wavelet)
+        covariance = data_covariance(signal, emp, J)
         omega = weighting_from_covariance(covariance)
     else:  # bootstrap: a first diagonal fit, then the covariance at that fit
         first = gmwm(emp, base, freq, weighting="diagonal", levels=J, n_starts=n_starts,
@@ -504,13 +599,28 @@ def gmwm(
     )
 
 
+def _checked_omega(omega: np.ndarray, J: int) -> np.ndarray:
+    """A user's weighting matrix, checked: (J, J), finite, symmetric, positive definite."""
+    if omega.shape != (J, J):
+        raise InputError(f"the weighting matrix must have shape {(J, J)} (levels used), got {omega.shape}")
+    if not np.all(np.isfinite(omega)):
+        raise InputError("the weighting matrix has non-finite entries")
+    if not np.allclose(omega, omega.T, rtol=1e-10, atol=0.0):
+        raise InputError("the weighting matrix is not symmetric")
+    try:
+        np.linalg.cholesky(omega)
+    except np.linalg.LinAlgError:
+        raise InputError("the weighting matrix is not positive definite") from None
+    return 0.5 * (omega + omega.T)
+
+
 def _search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
             n_starts: int, n_random: int, starts: Sequence[Model], seed: int,
             n_refine: int = 3, *, problem_factory: Any = _Problem) -> dict[str, Any]:
     """Multi-start minimisation of eq. 20.
 
-    Candidates: the families' guesses, the given starts, `n_starts` seeded perturbations of
-    the guesses, and the best of `n_random` random points screened by the objective. Each
+    Candidates: the families' guesses and their alternatives, the given starts, `n_starts`
+    seeded perturbations of the guesses, and the best of `n_random` random points screened by the objective. Each
     candidate first descends the flattened criterion of eq. 34 (cheap, well scaled); the
     `n_refine` best distinct results (by eq. 20), and every given start as it is, are then
     refined on eq. 20 itself. The best refined point wins. `problem_factory` builds the
@@ -527,6 +637,7 @@ def _search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray
             raise SpecError(f"start {s.name} does not match model {base.name} with all values given")
         given.append(s.to_unconstrained()[mask])
     candidates.extend(given)
+    candidates.extend(alt.to_unconstrained()[mask] for alt in base.start_alternatives(nu_hat))
     for _ in range(n_starts):
         candidates.append(base.start(nu_hat, rng=gen).to_unconstrained()[mask])
     if n_random:

@@ -38,6 +38,7 @@ import numpy as np
 from stochmod._validation import check_positive_int
 from stochmod.errors import InputError, SpecError
 from stochmod.fit.gmwm import GMWMResult, _canonical, _Problem, _sandwich
+from stochmod.fit.weighting import data_covariance
 from stochmod.model import Model
 from stochmod.process import has_theoretical_wv
 from stochmod.signal.wavelet_variance import wvar
@@ -242,12 +243,11 @@ class IndirectGMWMResult(GMWMResult):
     def simulation_covariance(self) -> np.ndarray:
         """Covariance of ``phi*(theta)``: eq. 17 on the simulated series at the estimate
         (J x J, unit^4; ``~ V N / n_sim`` when every component is simulated)."""
-        from stochmod.signal.wv_covariance import wv_covariance
-
         y = self.simulation.series(self.model)
         if y is None:
             return np.zeros((self.levels, self.levels))
-        return wv_covariance(y, self.levels, wavelet=self.simulation.wavelet)
+        emp = wvar(y, self.model.freq, wavelet=self.simulation.wavelet, levels=self.levels)
+        return data_covariance(y, emp, self.levels)
 
     @functools.cached_property
     def cov_params_simulation(self) -> np.ndarray:
@@ -261,6 +261,12 @@ class IndirectGMWMResult(GMWMResult):
         """Covariance of ``phi_hat - phi*(theta)`` (J x J, unit^4): the data's (as for the
         analytic fit) plus the simulation's; used by eqs. 22-23 and the J-test."""
         return GMWMResult.wv_covariance.func(self) + self.simulation_covariance
+
+    @functools.cached_property
+    def null_wv_covariance(self) -> np.ndarray:
+        """The model's covariance of the data's WV (:attr:`GMWMResult.null_wv_covariance`)
+        plus the simulation's."""
+        return GMWMResult.null_wv_covariance.func(self) + self.simulation_covariance
 
     def summary(self) -> str:
         """The GMWM summary plus how the binding function was simulated."""

@@ -37,13 +37,12 @@ from stochmod._validation import as_signals, check_freq, check_positive_int
 from stochmod.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit import criteria as _criteria
 from stochmod.fit.gmwm import _BOUND, GMWMResult, _canonical, _Problem, _search
-from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, weighting_from_covariance
+from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, data_covariance, weighting_from_covariance
 from stochmod.io import Recording
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
 from stochmod.reporting import format_table
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
-from stochmod.signal.wv_covariance import wv_covariance
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
            "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]
@@ -212,14 +211,14 @@ def _prepare(item: tuple[np.ndarray, float, int | None, str]) -> _Column:
         return _Column(emp, np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels)))
     if weighting == "identity":
         return _Column(emp, np.eye(J))
-    V = wv_covariance(x, J)
+    V = data_covariance(x, emp, J)
     return _Column(emp, weighting_from_covariance(V), V)
 
 
-def _covariance(item: tuple[np.ndarray, int]) -> np.ndarray:
-    """Asymptotic covariance V of the empirical WV (eq. 17) at levels 1..J."""
-    x, J = item
-    return wv_covariance(x, J)
+def _covariance(item: tuple[np.ndarray, WaveletVariance, int]) -> np.ndarray:
+    """Covariance V of the empirical WV (eq. 17, deep levels decoupled) at levels 1..J."""
+    x, emp, J = item
+    return data_covariance(x, emp, J)
 
 
 class _Stagnation:
@@ -657,7 +656,7 @@ def select(
             if free > J:
                 raise InputError(f"candidate {name} has {free} free parameters but the signal gives "
                                  f"only {J} wavelet levels")
-        covs = [pool.submit(_covariance, (data[:, k], J)) if sh.covariance is None else None
+        covs = [pool.submit(_covariance, (data[:, k], sh.empirical, J)) if sh.covariance is None else None
                 for k, sh in enumerate(shared)]  # V runs alongside the fits
         try:
             fits = _run_fits(pool, graph, shared, freq, weighting, seed, bar)

@@ -4,12 +4,36 @@ from __future__ import annotations
 
 import numpy as np
 
-from stochmod.errors import EstimationError, InputError
+from stochmod.errors import EstimationError, InputError, SpecError
+from stochmod.model import Model
+from stochmod.signal.wavelet_variance import WaveletVariance
+from stochmod.theory import wv_covariance_from_psd
+from stochmod.signal.wv_covariance import wv_covariance
 
-__all__ = ["WEIGHTINGS", "chi2_variance", "weighting_from_covariance"]
+__all__ = [
+    "WEIGHTINGS",
+    "COVARIANCE_MIN_EDF",
+    "equivalent_dof",
+    "chi2_variance",
+    "decoupled_covariance",
+    "data_covariance",
+    "model_covariance",
+    "weighting_from_covariance",
+]
 
 #: Names accepted by ``stochmod.gmwm(weighting=...)``.
 WEIGHTINGS = ("diagonal", "optimal", "bootstrap", "identity")
+
+#: Smallest equivalent degrees of freedom ``M_j / 2^j`` of a level whose covariances with the
+#: other levels are taken from the eq. 17 estimate (see :func:`decoupled_covariance`).
+COVARIANCE_MIN_EDF = 4.0
+
+
+def equivalent_dof(n_coef: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """Equivalent degrees of freedom ``eta_j = max(M_j / 2^j, 1)`` of each empirical WV
+    (Percival & Walden, 2000, eq. 313c): the number of effectively independent squared
+    wavelet coefficients at level j."""
+    return np.maximum(np.asarray(n_coef, float) / 2.0 ** np.asarray(level, float), 1.0)
 
 
 def chi2_variance(wv: np.ndarray, n_coef: np.ndarray, level: np.ndarray) -> np.ndarray:
@@ -18,8 +42,7 @@ def chi2_variance(wv: np.ndarray, n_coef: np.ndarray, level: np.ndarray) -> np.n
     ``var(v_j) = 2 v_j^2 / eta_j`` with ``eta_j = max(M_j / 2^j, 1)`` (Percival & Walden,
     2000, eq. 313c): the same approximation that gives the chi-square intervals.
     """
-    eta = np.maximum(np.asarray(n_coef, float) / 2.0 ** np.asarray(level, float), 1.0)
-    return 2.0 * np.asarray(wv, float) ** 2 / eta
+    return 2.0 * np.asarray(wv, float) ** 2 / equivalent_dof(n_coef, level)
 
 
 def weighting_from_covariance(V: np.ndarray) -> np.ndarray:
@@ -40,3 +63,93 @@ def weighting_from_covariance(V: np.ndarray) -> np.ndarray:
         ) from None
     Rinv = np.linalg.solve(L.T, np.linalg.solve(L, np.eye(len(R))))
     return Rinv / np.outer(scale, scale)
+
+
+def decoupled_covariance(V: np.ndarray, wv: np.ndarray, n_coef: np.ndarray, level: np.ndarray,
+                         *, min_edf: float = COVARIANCE_MIN_EDF) -> np.ndarray:
+    """A positive definite covariance of the empirical WV from the eq. 17 estimate `V`.
+
+    The eq. 17 estimator sums products of the few wavelet coefficients a deep level has: with
+    fewer than about `min_edf` equivalent degrees of freedom its covariances are mostly noise
+    and ``V`` is often indefinite there (negative variances of linear combinations). Such
+    levels are decoupled: their row and column are replaced by zeros and their diagonal by the
+    chi-square variance ``2 wv_j^2 / eta_j`` (:func:`chi2_variance`). If the block of the
+    remaining levels is still not positive definite, the deepest of them is decoupled too,
+    until it is.
+
+    Parameters
+    ----------
+    V : ndarray (J, J)
+        Estimated covariance of the empirical WV (eq. 17), unit^4.
+    wv, n_coef, level : ndarray (J,)
+        The empirical WV (unit^2), its number of coefficients and level numbers.
+    min_edf : float
+        Equivalent degrees of freedom below which a level is decoupled.
+
+    Returns
+    -------
+    ndarray (J, J)
+        Symmetric positive definite covariance, unit^4.
+    """
+    V = 0.5 * (np.asarray(V, float) + np.asarray(V, float).T)
+    J = V.shape[0]
+    if V.shape != (J, J) or np.shape(wv) != (J,):
+        raise InputError(f"V must be (J, J) and wv (J,), got {V.shape} and {np.shape(wv)}")
+    coupled = int(np.sum(np.cumprod(equivalent_dof(n_coef, level) >= min_edf)))
+    while coupled > 0:
+        block = V[:coupled, :coupled]
+        d = np.sqrt(np.diag(block))
+        if np.all(np.isfinite(d)) and np.all(d > 0):
+            try:
+                np.linalg.cholesky(block / np.outer(d, d))
+                break
+            except np.linalg.LinAlgError:
+                pass
+        coupled -= 1
+    out = np.diag(chi2_variance(wv, n_coef, level))
+    out[:coupled, :coupled] = V[:coupled, :coupled]
+    return out
+
+
+def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndarray:
+    """Covariance of the empirical WV `emp` of the signal `x` at levels 1..`levels`: the
+    asymptotic estimator of eq. 17 (:func:`stochmod.signal.wv_covariance.wv_covariance`),
+    with the deep levels decoupled (:func:`decoupled_covariance`), unit^4."""
+    V = wv_covariance(x, levels, wavelet=emp.wavelet)
+    return decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+
+
+def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") -> np.ndarray:
+    """Large-sample covariance of the empirical WV under `model` (J x J, unit^4).
+
+    The Gaussian components' summed PSD gives :func:`stochmod.theory.wv_covariance_from_psd`;
+    a component with its own sampling covariance (:meth:`Process.wv_sampling_covariance`,
+    e.g. the random ramp) adds it (cross terms between the two kinds are left out). Unlike
+    the eq. 17 estimate it has no estimation noise at deep levels: it is the covariance a
+    test of the model (the J-test) should use under the null hypothesis.
+
+    Parameters
+    ----------
+    model : Model
+        A composite model with values, bound to its sampling frequency.
+    n_coef : ndarray (J,)
+        Number of coefficients M_j of the empirical WV at levels 1..J.
+    wavelet : str
+        Wavelet filter of the empirical WV.
+    """
+    if model.freq is None:
+        raise SpecError("the model is not bound to a sampling frequency: use model.bind(freq)")
+    freq = float(model.freq)
+    spectral, total = [], np.zeros((len(n_coef), len(n_coef)))
+    for proc in model.processes:
+        own = proc.wv_sampling_covariance(n_coef, freq, wavelet)
+        if own is None:
+            spectral.append(proc)
+        else:
+            total += own
+    if spectral:
+        breakpoints = sorted({b for p in spectral for b in p.psd_breakpoints(freq)})
+        total += wv_covariance_from_psd(
+            lambda f: np.sum([p.psd(f, freq) for p in spectral], axis=0), n_coef, freq,
+            wavelet=wavelet, breakpoints=breakpoints)
+    return total

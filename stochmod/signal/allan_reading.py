@@ -42,6 +42,7 @@ from scipy.special import chdtri, ndtri
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import EstimationError, InputError
+from stochmod.geometric import WV_PEAK_X
 from stochmod.reporting import format_number, format_table
 from stochmod.signal.allan import AllanVariance, avar, greenhall_edf, local_slopes
 
@@ -81,7 +82,7 @@ _READ_TAU = {"Q": math.sqrt(3.0), "N": 1.0, "K": 3.0, "R": math.sqrt(2.0)}
 #: tau / Tc at the maximum of a first-order Gauss-Markov AV, and that maximum / sigma^2.
 #: AV = (2 s^2 Tc / tau) [1 - (Tc / 2 tau)(3 - 4 exp(-tau/Tc) + exp(-2 tau/Tc))]
 #: (IEEE 952 Annex C); the values are checked against a numerical maximisation in the tests.
-GM_PEAK_X = 1.8926178329250188
+GM_PEAK_X = WV_PEAK_X
 GM_PEAK_AV = 0.38113865810244997
 #: How ``to_model`` turns (B, Tc) into a GM: "quinchia" (default) or "matched".
 GM_CONVENTIONS = ("quinchia", "matched")

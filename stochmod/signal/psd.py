@@ -471,17 +471,18 @@ def _fit_term(name: str, raw: PowerSpectrum, sel: np.ndarray, groups: np.ndarray
         g = g - other.level_at(f, raw.freq)
     ratio = g * _shape_frequency(name, f, raw.freq) ** (-slope)
     c_hat = float(ratio.mean())
-    if not c_hat > 0:
-        c_hat = float(np.finfo(float).tiny)  # the other terms explain everything here
     rho = _bin_correlation(raw.window, raw.nperseg)
     nu = float(raw.dof[sel].mean())
     rel_se = math.sqrt(2.0 / nu / float(_effective_counts(np.array([ratio.size]), rho)[0]))
     uniq, inv = np.unique(groups[sel], return_inverse=True)
-    if uniq.size > 1:
+    if not c_hat > 0:
+        # the other terms explain everything here: a zero coefficient, unbounded above
+        c_hat, rel_se = float(np.finfo(float).tiny), math.inf
+    elif uniq.size > 1:
         counts = np.bincount(inv)
-        means = np.bincount(inv, weights=ratio) / counts
-        var = c_hat**2 * 2.0 / nu / _effective_counts(counts, rho)
-        red_chi2 = float(np.sum((means - c_hat) ** 2 / var)) / (uniq.size - 1)
+        rel_means = np.bincount(inv, weights=ratio) / counts / c_hat
+        rel_var = 2.0 / nu / _effective_counts(counts, rho)
+        red_chi2 = float(np.sum((rel_means - 1.0) ** 2 / rel_var)) / (uniq.size - 1)
         rel_se *= math.sqrt(max(1.0, red_chi2))
     z = float(stats.norm.ppf(0.5 + level / 2.0))
     value = math.sqrt(c_hat * _SCALE[name])
