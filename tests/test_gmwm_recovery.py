@@ -28,8 +28,8 @@ SPEC_GMRW = "GM(beta=0.1, sigma2=1e-7) + WN(sigma2=3e-6) + RW(sigma2=1e-12)"
 SPEC_QNRR = "QN(Q2=1e-7) + WN(sigma2=3e-6) + RW(sigma2=1e-12) + RR(omega=1e-8)"
 SPEC_AR2 = "AR(phi=[1.949, -0.94905], sigma2=1e-10) + WN(sigma2=3e-6)"
 
-# Monte Carlo RMSE at N = 2^17 (bench/mc_gmwm.py --n 131072, R = 50; AR(2)+WN: R = 20 with
-# the truth among the starts, i.e. the estimator's spread once the search finds the optimum).
+# Monte Carlo RMSE at N = 2^17 (bench/mc_gmwm.py --n 131072, R = 50; AR(2)+WN: R = 20), see
+# the appendix of docs/gmwm_monte_carlo.md.
 # Heavy-tailed ones (slow GM beta, RW, RR: relative RMSE 0.4-4) make loose but honest bounds.
 RMSE = {
     SPEC_2GM: {"GM1.beta": 0.0826, "GM1.sigma2": 3.47e-8, "GM2.beta": 0.084,  # GM2.beta: rel. 4.2
