@@ -138,6 +138,20 @@ def test_thread_and_process_pools_give_the_same_ranking(threads):
     assert a.best.model.to_spec() == d.best.model.to_spec()
 
 
+def test_dask_distributed_executor_works_unchanged():
+    # a dask.distributed client's executor on a local cluster of worker processes: the fits are
+    # pickled to other processes and come back through dask futures; same ranking as the default
+    from distributed import Client, LocalCluster
+
+    x = QWR.simulate(2**13, rng=6)
+    kwargs = {"candidates": QWR_CANDIDATES[:4], "rng": 3}
+    with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                       dashboard_address=None) as cluster,
+          Client(cluster) as client):
+        on_dask = select(x, FREQ, executor=client.get_executor(), **kwargs)
+    assert _ranking(on_dask) == _ranking(select(x, FREQ, **kwargs))
+
+
 def test_column_result_independent_of_other_columns(threads):
     x = GM1.simulate(2**13, rng=7)
     y = QWR.simulate(2**13, rng=8)
