@@ -6,6 +6,7 @@ Third parties may also register a plugin object at run time with :func:`register
 
 from __future__ import annotations
 
+import importlib
 import threading
 from typing import TYPE_CHECKING, Any
 
@@ -27,18 +28,26 @@ __all__ = [
     "criteria",
 ]
 
-_lock = threading.Lock()
+_lock = threading.RLock()
 _manager: pluggy.PluginManager | None = None
+#: The core's own hook implementations (the WVIC criterion), registered with the entry points.
+_BUILTIN_PLUGINS = ("stochmod.fit.criteria",)
 
 
 def plugin_manager() -> pluggy.PluginManager:
-    """Return the process-wide plugin manager, loading entry-point plugins the first time."""
+    """Return the process-wide plugin manager, loading entry-point plugins the first time.
+
+    Loading happens at first use, never while a module is being imported, so that a plugin
+    module imported before stochmod (``import stochmod_ar`` first) is registered complete.
+    """
     global _manager
     with _lock:
         if _manager is None:
             pm = pluggy.PluginManager(PROJECT_NAME)
             pm.add_hookspecs(StochmodSpec)
             pm.load_setuptools_entrypoints(PROJECT_NAME)
+            for name in _BUILTIN_PLUGINS:
+                pm.register(importlib.import_module(name), name=name)
             _manager = pm
         return _manager
 

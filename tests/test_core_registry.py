@@ -3,6 +3,8 @@ name, runtime plugins, and the errors for unknown and duplicate families."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from typing import ClassVar
 
 import attrs
@@ -54,6 +56,16 @@ def test_first_party_families_are_discovered_through_entry_points() -> None:
     # the entry points are what loaded them
     loaded = {mod.__name__ for _, mod in plugin_manager().list_name_plugin()}
     assert set(FIRST_PARTY.values()) <= loaded
+
+
+@pytest.mark.parametrize("module", sorted(set(FIRST_PARTY.values())))
+def test_a_plugin_imported_before_stochmod_is_registered_complete(module: str) -> None:
+    # entry points load at first use, not while the plugin module is half imported
+    code = (f"import {module}, stochmod; names = stochmod.process_names(); "
+            f"assert set({sorted(FIRST_PARTY)!r}) <= set(names), names; "
+            "assert stochmod.fit.criteria.criterion_names() == ['wvic']")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
 
 
 def test_get_process_and_attribute_access() -> None:

@@ -25,7 +25,6 @@ better), returned by the ``stochmod_criteria`` hook. This module registers the f
 
 from __future__ import annotations
 
-import sys
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import attrs
@@ -34,7 +33,7 @@ import numpy as np
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.fit.weighting import chi2_variance
-from stochmod.registry import criteria, plugin_manager
+from stochmod.registry import criteria
 
 if TYPE_CHECKING:
     from stochmod.fit.gmwm import GMWMResult
@@ -43,7 +42,6 @@ __all__ = ["WaveletVarianceIC", "WVIC", "optimism", "identified", "negligible_co
            "get_criterion",
            "criterion_names", "stochmod_criteria"]
 
-_PLUGIN_NAME = "stochmod.fit.criteria"
 _RANK_TOL = 1e-10  # singular values below this fraction of the largest count as zero
 
 
@@ -145,12 +143,6 @@ def stochmod_criteria() -> list[Any]:
     return [WVIC]
 
 
-def _register() -> None:
-    pm = plugin_manager()
-    if pm.get_plugin(_PLUGIN_NAME) is None and not pm.is_registered(sys.modules[__name__]):
-        pm.register(sys.modules[__name__], name=_PLUGIN_NAME)
-
-
 def criterion_names() -> list[str]:
     """Names of the registered selection criteria, sorted."""
     return sorted(criteria())
@@ -166,5 +158,3 @@ def get_criterion(name: str) -> Any:
             f"unknown selection criterion {name!r}; registered criteria: {', '.join(sorted(table))}"
         ) from None
 
-
-_register()
