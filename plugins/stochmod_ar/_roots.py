@@ -441,6 +441,10 @@ def _refined_roots(coef: np.ndarray, z0: np.ndarray) -> list[tuple[DD, DD]]:
     for k in range(p):
         dist = [abs(z0[k] - z0[l]) for l in range(p) if l != k]
         zk, conv = _refine(coef, complex(z0[k]), 0.25 * min(dist + [2.0]) + 1e-300, z0[k].imag == 0)
+        if not conv and z0[k].imag != 0:
+            # a near-double complex pair: np.roots can misplace it by more than a quarter of
+            # the pair's separation; Newton may roam the whole half plane on its side
+            zk, conv = _refine(coef, complex(z0[k]), 0.99 * abs(z0[k].imag), False)
         out.append(zk)
         ok.append(conv)
     stuck = [k for k in range(p) if not ok[k] and z0[k].imag == 0]
