@@ -11,6 +11,7 @@ from typing import Any
 
 from stochmod import examples, units
 from stochmod.errors import (
+    AccuracyWarning,
     DomainError,
     EstimationError,
     InputError,
@@ -106,6 +107,7 @@ __all__ = [
     "SpecError",
     "UnknownProcessError",
     "EstimationError",
+    "AccuracyWarning",
 ]
 
 

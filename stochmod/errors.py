@@ -14,6 +14,7 @@ __all__ = [
     "SpecError",
     "UnknownProcessError",
     "EstimationError",
+    "AccuracyWarning",
 ]
 
 
@@ -42,3 +43,8 @@ class UnknownProcessError(SpecError, KeyError):
 
 class EstimationError(StochmodError):
     """An estimator failed (optimizer did not converge, singular weighting, ...)."""
+
+
+class AccuracyWarning(RuntimeWarning):
+    """A result could not be computed to a useful accuracy in double precision (e.g. a
+    derivative at parameters within ~1e-8 of a domain boundary); the message says which."""

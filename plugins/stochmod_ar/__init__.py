@@ -27,6 +27,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+import warnings
 from fractions import Fraction
 from typing import ClassVar
 
@@ -38,13 +39,14 @@ import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import DomainError, InputError, SpecError
+from stochmod.errors import AccuracyWarning, DomainError, InputError, SpecError
 from stochmod.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter, get_domain
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.statespace import StateSpaceBlock
 
+from stochmod_ar._jacobian import haar_wv_phi_jacobian
 from stochmod_ar._roots import ARRoots, ar_roots
 
 __all__ = ["AR", "stochmod_processes"]
@@ -54,7 +56,10 @@ _SIGMA2 = Parameter("sigma2", "positive", "u^2", "innovation variance per sample
 _CHUNK = 1 << 15
 _EPS = 2.0 ** -52
 _PRECISE_ABOVE = 1e-12  # estimated relative rounding error above which residues go double-double
+_SPLIT_ABOVE = 8.0 * _EPS  # direct residue sums within this (estimated, relative) need no split form
 _JACOBIAN_RTOL = 1e-10  # estimated relative error at which the Jacobian step ladder stops
+_ANALYTIC_RTOL = 1e-6  # estimated relative error up to which the analytic Jacobian is used
+_UNRESOLVED = 0.1  # estimated relative error of a Jacobian entry beyond which it is reported
 
 
 def _check_order(order: object) -> int:
@@ -168,11 +173,16 @@ class AR(Process):
             return rest.astype(np.complex128)
 
         direct, err_direct = roots.residue_sum(whole, 2.0 * m, smooth=True)
-        rest, err_rest = roots.residue_sum(decaying, 2.0 * m, smooth=True)
-        phi1 = float(1 - sum(Fraction(c) for c in self.phi))  # 1 - sum phi, exactly rounded
-        lead = 1.0 / (phi1 * phi1 * 2.0 * m)
-        use_split = lead + err_rest < err_direct
-        out = np.where(use_split, lead + rest, direct)
+        if np.all(err_direct <= _SPLIT_ABOVE * np.abs(direct)):  # a few ulps already
+            use_split = np.zeros(m.size, dtype=bool)
+            lead = err_rest = np.zeros(m.size)
+            out = direct
+        else:
+            rest, err_rest = roots.residue_sum(decaying, 2.0 * m, smooth=True)
+            phi1 = float(1 - sum(Fraction(c) for c in self.phi))  # 1 - sum phi, exactly rounded
+            lead = 1.0 / (phi1 * phi1 * 2.0 * m)
+            use_split = lead + err_rest < err_direct
+            out = np.where(use_split, lead + rest, direct)
         # estimated relative rounding error; redo the worst levels with double-double residues
         est = _EPS * np.where(use_split, lead + err_rest, err_direct) / np.abs(out)
         bad = est > _PRECISE_ABOVE
@@ -189,26 +199,67 @@ class AR(Process):
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """Jacobian of the Haar WV w.r.t. ``(phi_1..phi_p, sigma2)``, shape (levels, p + 1).
 
-        ``d wv / d sigma2 = wv / sigma2`` exactly. The phi columns by Richardson-extrapolated
-        central differences (steps as represented in binary), per level from the step of a
-        ladder ``(0.3, 1e-2, 1e-4) * margin`` with the smallest estimated error (truncation:
-        the Richardson correction; rounding: ``1e-12 wv / step``, the WV's worst relative
-        accuracy). The margin ``min(1, min_k |P(z_k / |z_k|)| / p)`` is the distance in
-        phi-space to non-stationarity (``(1 - |z|) |P'(z)|`` for a simple root, the square of
-        the distance for a double one), the scale on which the WV varies with phi; a step is
-        divided by 8 until the perturbed coefficients stay stationary. The ladder stops at the
-        first step whose estimated error is below 1e-10 relative at every level. Relative
-        accuracy ~1e-9 typically, ~1e-6 next to a double root close to the unit circle.
+        ``d wv / d sigma2 = wv / sigma2`` exactly. The phi columns from the residue form of the
+        derivative (:mod:`stochmod_ar._jacobian`) wherever its estimated relative error is at
+        most 1e-6 (the actual error is typically 10-100 times smaller); where it is larger
+        (near-repeated roots, roots within ~1e-7 of +-1 or complex pairs by the unit circle at
+        deep levels), Richardson differences (:meth:`_wv_jacobian_by_differences`) replace the
+        entries whose own error estimate is smaller. Relative accuracy ~1e-12 typically, 1e-4
+        or better next to near-repeated roots, degrading like ``1e-10 / (1 - max |z|)`` as roots
+        approach the unit circle (5e-6 for roots 5e-9 from +1 and -1). Where neither form
+        resolves an entry to 10% (several roots within ~1e-8 of the circle, where one ulp of
+        phi moves the WV by more than the step differences need), an
+        :class:`~stochmod.errors.AccuracyWarning` names the entries.
         """
         freq = check_freq(freq)
         base = self.wv(levels, freq)
+        analytic = haar_wv_phi_jacobian(self._roots(), 2.0 ** np.arange(levels))
+        if analytic is None:  # near-repeated roots: differences throughout
+            analytic = (np.zeros((levels, self.order)), np.full((levels, self.order), np.inf))
+        jac, abs_err = analytic
+        cols = []
+        for i in range(self.order):
+            col = self.sigma2 * jac[:, i]
+            err = self.sigma2 * abs_err[:, i]
+            bad = ~(err <= _ANALYTIC_RTOL * np.abs(col))
+            if np.any(bad):  # differences where their own error estimate is smaller
+                diff, diff_err = self._wv_jacobian_by_differences(i, levels, freq, base)
+                better = bad & ~(diff_err >= err)
+                col[better] = diff[better]
+                err[better] = diff_err[better]
+                lost = bad & ~(err <= _UNRESOLVED * np.abs(col))
+                if np.any(lost):
+                    warnings.warn(
+                        f"AR.wv_jacobian at phi = {list(self.phi)}: d wv / d phi_{i + 1} is not "
+                        f"resolved in double precision at level(s) {(np.flatnonzero(lost) + 1).tolist()} "
+                        "(roots within ~1e-8 of the unit circle); estimated error above 10%",
+                        AccuracyWarning, stacklevel=2)
+            cols.append(col)
+        cols.append(base / self.sigma2)
+        return np.column_stack(cols)
+
+    def _wv_jacobian_by_differences(self, i: int, levels: int, freq: float,
+                                    base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Column ``d wv / d phi_i`` by Richardson-extrapolated central differences, with the
+        estimated absolute error of each entry.
+
+        Steps as represented in binary, per level from the step of a ladder
+        ``(0.3, 1e-2, 1e-4) * margin`` with the smallest estimated error (truncation: the
+        Richardson correction; rounding: ``1e-12 wv / step``, the WV's worst relative accuracy).
+        The margin ``min(1, min_k |P(z_k / |z_k|)| / p)`` is the distance in phi-space to
+        non-stationarity (``(1 - |z|) |P'(z)|`` for a simple root, the square of the distance for
+        a double one), the scale on which the WV varies with phi; a step is divided by 8 until
+        the perturbed coefficients stay stationary. The ladder stops at the first step whose
+        estimated error is below 1e-10 relative at every level. Relative accuracy ~1e-9
+        typically, ~1e-6 next to a double root close to the unit circle.
+        """
         z = self._roots().z
         # distance in phi-space to non-stationarity: |P| at the roots' projections on the circle
         on_circle = np.where(z != 0, z / np.where(z != 0, np.abs(z), 1.0), 1.0)
         scale = min(1.0, float(np.min(np.abs(np.prod(on_circle[:, None] - z[None, :], axis=1)))) / z.size)
         phi = np.asarray(self.phi)
 
-        def central(i: int, step: float) -> np.ndarray:
+        def central(step: float) -> np.ndarray:
             hi, lo = phi.copy(), phi.copy()
             hi[i] += step
             lo[i] -= step
@@ -218,27 +269,23 @@ class AR(Process):
             down = AR(phi=lo, sigma2=self.sigma2).wv(levels, freq)
             return (up - down) / (hi[i] - lo[i])
 
-        cols = []
-        for i in range(self.order):
-            best = np.full(levels, np.inf)
-            col = np.zeros(levels)
-            for rel in (1e-2, 0.3, 1e-4):  # the middle step first: usually enough
-                h = rel * scale
-                while True:
-                    try:
-                        coarse, fine = central(i, h), central(i, h / 2)
-                        break
-                    except DomainError:
-                        h /= 8.0
-                err = np.abs(fine - coarse) / 3.0 + 1e-12 * np.abs(base) / h
-                better = err < best  # False where a step was unresolvable (NaN)
-                col = np.where(better, (4.0 * fine - coarse) / 3.0, col)
-                best = np.minimum(err, best)
-                if np.all(best <= _JACOBIAN_RTOL * np.abs(col)):
+        best = np.full(levels, np.inf)
+        col = np.zeros(levels)
+        for rel in (1e-2, 0.3, 1e-4):  # the middle step first: usually enough
+            h = rel * scale
+            while True:
+                try:
+                    coarse, fine = central(h), central(h / 2)
                     break
-            cols.append(col)
-        cols.append(base / self.sigma2)
-        return np.column_stack(cols)
+                except DomainError:
+                    h /= 8.0
+            err = np.abs(fine - coarse) / 3.0 + 1e-12 * np.abs(base) / h
+            better = err < best  # False where a step was unresolvable (NaN)
+            col = np.where(better, (4.0 * fine - coarse) / 3.0, col)
+            best = np.fmin(err, best)  # a NaN (unresolvable step) never replaces an estimate
+            if np.all(best <= _JACOBIAN_RTOL * np.abs(col)):
+                break
+        return col, best
 
     def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
         """Exact autocovariance at integer `lags` (samples), u^2: residues at the roots."""

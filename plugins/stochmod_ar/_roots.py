@@ -484,7 +484,6 @@ def ar_roots(phi: tuple[float, ...]) -> ARRoots:
         anchor[g] = _anchor_of(complex(np.mean(z[g])))
     w = np.array([complex((re[0] - a) + re[1], im[0] + im[1]) for (re, im), a in zip(zdd, anchor)])
     # groups: the factor polynomial from the exact Taylor coefficients, the members its roots
-    taylor = {a: _taylor_coefficients(phi, a) for a in (-1, 0, 1)}
     factors: list[np.ndarray | None] = []
     for g in groups:
         if len(g) == 1:
@@ -492,7 +491,10 @@ def ar_roots(phi: tuple[float, ...]) -> ARRoots:
             continue
         a = int(anchor[g[0]])
         others = [complex((anchor[l] - a) + w[l]) for l in range(p) if l not in g]
-        c = _group_factor(taylor[a], others, len(g))
+        if all(abs(o) > 2.0 * max(abs(w[l]) for l in g) for o in others):
+            c = _group_factor(_taylor_coefficients(phi, a), others, len(g))
+        else:  # another root as near the anchor as the group: the series about it diverges
+            c = np.polynomial.polynomial.polyfromroots(w[list(g)]).astype(np.complex128)
         factors.append(c)
         members = list(np.roots(c[::-1]))
         for k in g:  # each member takes the nearest remaining root of its factor
