@@ -190,6 +190,7 @@ def test_wv_jacobian_matches_mpmath_derivative(phi):
         assert float(abs(J[j - 1, -1] - ref_s2) / ref_s2) <= 1e-12
 
 
+# examples per Jacobian property (raise it to search harder, e.g. STOCHMOD_JAC_EXAMPLES=1000)
 JAC_EXAMPLES = int(os.environ.get("STOCHMOD_JAC_EXAMPLES", "25"))
 
 
@@ -243,7 +244,7 @@ def test_wv_jacobian_over_the_domain(phi, j):
         assert float(abs(J[i] - ref) / scale) <= tol, (i, float(abs(J[i] - ref) / scale), tol)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=JAC_EXAMPLES, deadline=None)
 @given(phi=stationary_phi(), j=st.integers(1, 24))
 @example(phi=(0.5,), j=1)
 @example(phi=(0.9999972,), j=2)
