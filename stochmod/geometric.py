@@ -64,15 +64,15 @@ WV_PEAK_X = 1.8926178329250188
 # g(x) = 2x - 3 + 4 e^-x - e^-2x = x^3 sum_n (-1)^n (4 - 2^n) / n! x^(n-3), n >= 3.
 _S_COEFS = np.array([1.0 / math.factorial(2 * k + 3) for k in range(12)])
 _G_COEFS = np.array([float(Fraction((-1) ** n * (4 - 2**n), math.factorial(n))) for n in range(3, 34)])
+_EXPONENTS = np.arange(max(_S_COEFS.size, _G_COEFS.size), dtype=np.float64)
 _POLY_TERMS = 7  # |z| < 1e-3: terms up to z^6 leave < 1e-18 relative
 _SMALL_Z_LOG = math.log(1e-3)
 
 
 def _horner(coefs: np.ndarray, x: np.ndarray) -> np.ndarray:
-    out = np.full_like(x, coefs[-1])
-    for c in coefs[-2::-1]:
-        out = out * x + c
-    return out
+    """``sum_k coefs[k] x^k`` for |x| < 1 (a matrix of powers: one vectorised product
+    instead of a Python loop over the coefficients, which dominated an optimiser's calls)."""
+    return np.power.outer(x, _EXPONENTS[: coefs.size]) @ coefs
 
 
 def _sinh_minus_id(u: np.ndarray) -> np.ndarray:
