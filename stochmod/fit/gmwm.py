@@ -220,11 +220,26 @@ class GMWMResult:
         :func:`stochmod.fit.weighting.model_covariance` at the estimate, free of the
         estimation noise of eq. 17 at deep levels; the J-test's V. Falls back to
         :attr:`wv_covariance` for a family without a PSD."""
+        cov = self._model_null_covariance
+        return self.wv_covariance if cov is None else cov
+
+    @functools.cached_property
+    def _model_null_covariance(self) -> np.ndarray | None:
+        """:func:`~stochmod.fit.weighting.model_covariance` at the estimate (None for a family
+        without a PSD); depends on the fitted model only, not on the data's V."""
         try:
             return model_covariance(self.model, self.empirical.n_coef[: self.levels],
                                     self.empirical.wavelet)
         except (NotImplementedError, EstimationError):
-            return self.wv_covariance
+            return None
+
+    def with_data_covariance(self, covariance: np.ndarray) -> GMWMResult:
+        """This fit with the data's WV covariance V supplied (model selection computes V
+        alongside the fits); cached results that do not depend on V are kept."""
+        new = attrs.evolve(self, covariance=covariance)
+        if "_model_null_covariance" in self.__dict__:
+            new.__dict__["_model_null_covariance"] = self.__dict__["_model_null_covariance"]
+        return new
 
     @functools.cached_property
     def _jacobian(self) -> np.ndarray:

@@ -293,13 +293,15 @@ def _fit_task(task: _Task) -> GMWMResult:
     else:
         fit = _local_search(task, base, nu_hat, mask)
     fitted = _canonical(fit["model"])
-    return GMWMResult(
+    result = GMWMResult(
         model=fitted, empirical=emp, objective=fit["objective"], weighting=task.weighting,
         omega=task.shared.omega, levels=J, converged=fit["converged"], message=fit["message"],
         n_starts=fit["n_starts"], n_evaluations=fit["nfev"],
         free_names=tuple(np.asarray(fitted.param_names)[mask]), free_mask=mask,
         covariance=task.shared.covariance, rng_seed=task.seed,
     )
+    result._model_null_covariance  # the J-test's V, in the worker (cached, travels with it)
+    return result
 
 
 def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | None:
@@ -668,7 +670,7 @@ def select(
         for k, future in enumerate(covs):
             if future is not None:
                 shared[k] = attrs.evolve(shared[k], covariance=future.result())
-                fits[k] = {n: attrs.evolve(f, covariance=shared[k].covariance) for n, f in fits[k].items()}
+                fits[k] = {n: f.with_data_covariance(shared[k].covariance) for n, f in fits[k].items()}
 
     results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
                for k in range(len(cols))]
