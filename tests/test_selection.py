@@ -252,6 +252,10 @@ def test_progress_bar_and_its_missing_extra(threads, capsys, monkeypatch):
     x = QWR.simulate(2**10, rng=15)
     select(x, FREQ, candidates=["WN", "QN+WN"], executor=threads, progress=True)
     assert "select" in capsys.readouterr().err
+    # automatic mode draws nothing when stderr is not a terminal (here: captured)
+    monkeypatch.setattr("stochmod.fit.selection._AUTO_PROGRESS", 0)
+    select(x, FREQ, candidates=["WN", "QN+WN"], executor=threads)
+    assert "select" not in capsys.readouterr().err
     monkeypatch.setitem(sys.modules, "tqdm.auto", None)
     with pytest.raises(ImportError, match=r"stochmod\[progress\]"):
         select(x, FREQ, candidates=["WN"], executor=threads, progress=True)

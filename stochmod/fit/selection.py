@@ -530,7 +530,9 @@ def _progress(total: int, progress: bool | None, desc: str) -> Iterator[Any]:
             if progress:
                 raise ImportError('progress=True needs tqdm: pip install "stochmod[progress]"') from None
         else:
-            bar = tqdm(total=total, desc=desc, unit="fit", leave=False)
+            # automatic mode stays quiet when stderr is not a terminal (logs, pipes, CI)
+            bar = tqdm(total=total, desc=desc, unit="fit", leave=False,
+                       disable=None if progress is None else False)
     try:
         yield bar
     finally:
@@ -614,7 +616,8 @@ def select(
         ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers, shut down on
         return.
     progress : bool, optional
-        Show a tqdm progress bar (None: only when there are more than 8 fits).
+        Show a tqdm progress bar (None: only when there are more than 8 fits and stderr is
+        a terminal).
     rng : int or Generator
         Seed of every fit's multi-start (results reproduce, whatever the executor).
     levels : int, optional
