@@ -43,6 +43,10 @@ JTEST_MIN_EDF = 16.0
 _JTEST_RANK_RTOL = 1e-3
 
 _BOUND = 300.0  # |unconstrained| bound: keeps exp() finite while allowing any realistic scale
+#: Stage 1 of the search (the flattened criterion of eq. 34) only ranks starting points for the
+#: refinement on eq. 20 itself: (tolerance, evaluation cap) looser than the refinement's
+#: (1e-12, 2000), which crawled along flat valleys of weakly identified models.
+_STAGE1_TOLERANCE = (1e-8, 100)
 
 
 @attrs.frozen
@@ -129,12 +133,13 @@ class _Problem:
         return value if np.isfinite(value) else np.inf
 
 
-def _least_squares(fun, jac, x0: np.ndarray) -> optimize.OptimizeResult:
+def _least_squares(fun, jac, x0: np.ndarray, tol: float = 1e-12,
+                   max_nfev: int = 2000) -> optimize.OptimizeResult:
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
         return optimize.least_squares(
             fun, np.clip(x0, -_BOUND, _BOUND), jac=jac, bounds=(-_BOUND, _BOUND),
-            method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000,
+            method="trf", x_scale="jac", xtol=tol, ftol=tol, gtol=tol, max_nfev=max_nfev,
         )
 
 
@@ -666,7 +671,8 @@ def _search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray
     stage1: list[tuple[float, np.ndarray]] = [(problem.safe_objective(x), x) for x in given]
     for x0 in candidates:
         try:
-            flat = _least_squares(problem.flat_residuals, problem.flat_jacobian, x0)
+            flat = _least_squares(problem.flat_residuals, problem.flat_jacobian, x0,
+                                  *_STAGE1_TOLERANCE)
         except (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError):
             continue
         nfev += flat.nfev
