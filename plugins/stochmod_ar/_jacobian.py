@@ -56,13 +56,9 @@ def haar_wv_phi_jacobian(roots: ARRoots, m: np.ndarray) -> tuple[np.ndarray, np.
     z = roots.z
     if any(len(g) > 1 for g in roots.groups) or (p == 1 and z[0] == 0):
         return None  # (a simple root at zero is fine for p >= 2: z^e with e >= 0 below)
-    diff = np.empty((p, p), dtype=np.complex128)  # z_r - z_s from the anchored form
-    one_minus = np.empty((p, p), dtype=np.complex128)  # 1 - z_r z_s
-    for r in range(p):
-        for s in range(p):
-            diff[r, s] = roots._diff(roots.anchor[r], roots.w[r], s) if s != r else 1.0
-            one_minus[r, s] = (-roots.abs2m1[r] if s == roots.partner[r]
-                               else roots._one_minus_prod(roots.anchor[r], roots.w[r], s))
+    factors = [roots.pair_factors(r) for r in range(p)]
+    diff = np.array([d for d, _ in factors])  # z_r - z_s (1 on the diagonal)
+    one_minus = np.array([o for _, o in factors])  # 1 - z_r z_s
     Q = np.prod(diff, axis=1)
     A = np.prod(one_minus, axis=1)
     off = ~np.eye(p, dtype=bool)

@@ -195,18 +195,26 @@ class ARRoots:
         sign, u = self.sign_log(np.full(w.shape, s), w)
         return kernel(sign, u, cols) * (z ** (self.p - 1) / den)[:, None]
 
-    def residue(self, k: int, kernel: KernelFn, cols: np.ndarray) -> np.ndarray:
-        """Residue of ``z^(p-1) K(z) / (P(z) P*(z))`` at root k, one value per kernel column."""
+    def pair_factors(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``z_k - z_l`` (1 at l = k) and ``1 - z_k z_l`` for every root l, from the anchored
+        form; ``1 - z_k conj(z_k)`` is ``-(|z_k|^2 - 1)``, accurate next to the unit circle."""
         s, w = self.anchor[k], self.w[k]
-        den = complex(1.0)
+        diffs = np.ones(self.p, dtype=np.complex128)
+        ones = np.empty(self.p, dtype=np.complex128)
         for l in range(self.p):
             if l != k:
-                den *= complex(self._diff(s, w, l))
-            if l == self.partner[k]:
-                den *= -self.abs2m1[k]  # 1 - z_k conj(z_k) = 1 - |z_k|^2
-            else:
-                den *= complex(self._one_minus_prod(s, w, l))
-        zk = s + w
+                diffs[l] = self._diff(s, w, l)
+            ones[l] = -self.abs2m1[k] if l == self.partner[k] else self._one_minus_prod(s, w, l)
+        return diffs, ones
+
+    def residue(self, k: int, kernel: KernelFn, cols: np.ndarray) -> np.ndarray:
+        """Residue of ``z^(p-1) K(z) / (P(z) P*(z))`` at root k, one value per kernel column."""
+        diffs, ones = self.pair_factors(k)
+        den = complex(1.0)
+        for d, o in zip(diffs, ones):
+            den *= complex(d)
+            den *= complex(o)
+        zk = self.anchor[k] + self.w[k]
         val = kernel(self.sign[[k]], self.u[[k]], cols)[0]
         return val * (zk ** (self.p - 1) / den)
 
