@@ -69,7 +69,7 @@ _POLY_TERMS = 7  # |z| < 1e-3: terms up to z^6 leave < 1e-18 relative
 _SMALL_Z_LOG = math.log(1e-3)
 
 
-def _horner(coefs: np.ndarray, x: np.ndarray) -> np.ndarray:
+def _power_series(coefs: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``sum_k coefs[k] x^k`` for |x| < 1 (a matrix of powers: one vectorised product
     instead of a Python loop over the coefficients, which dominated an optimiser's calls)."""
     return np.power.outer(x, _EXPONENTS[: coefs.size]) @ coefs
@@ -81,7 +81,7 @@ def _sinh_minus_id(u: np.ndarray) -> np.ndarray:
     out = np.sinh(u) - u
     if np.any(small):
         us = u[small]
-        out[small] = us**3 * _horner(_S_COEFS, us * us)
+        out[small] = us**3 * _power_series(_S_COEFS, us * us)
     return out
 
 
@@ -93,7 +93,7 @@ def _g(x: np.ndarray) -> np.ndarray:
         out = 2.0 * x - 3.0 + 4.0 * e - e * e
     if np.any(small):
         xs = x[small]
-        out[small] = xs**3 * _horner(_G_COEFS, xs)
+        out[small] = xs**3 * _power_series(_G_COEFS, xs)
     return out
 
 
