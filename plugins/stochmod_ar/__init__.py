@@ -255,7 +255,7 @@ class AR(Process):
         """
         z = self._roots().z
         # distance in phi-space to non-stationarity: |P| at the roots' projections on the circle
-        on_circle = np.where(z != 0, z / np.where(z != 0, np.abs(z), 1.0), 1.0)
+        on_circle = np.where(z != 0, np.exp(1j * np.angle(z)), 1.0)  # z / |z|, also subnormal z
         scale = min(1.0, float(np.min(np.abs(np.prod(on_circle[:, None] - z[None, :], axis=1)))) / z.size)
         phi = np.asarray(self.phi)
 

@@ -19,7 +19,7 @@ grow like ``1 / (z_r - z_s)^2`` as roots approach each other, and their sum canc
 comes with an estimate of its rounding error (eps times the sum of the moduli of its terms,
 inflated by the relative accuracy of the root differences), and the caller falls back to
 differences where the estimate is not small (near-repeated roots, complex pairs by the unit
-circle at deep levels, the AR(1) at phi = 0).
+circle at deep levels, the AR(1) at phi = 0 or subnormal).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from stochmod_ar._roots import ARRoots
 __all__ = ["haar_wv_phi_jacobian"]
 
 _EPS = 2.0**-52
+_TINY = np.finfo(np.float64).tiny  # the smallest normal double
 
 
 def haar_wv_phi_jacobian(roots: ARRoots, m: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -50,12 +51,15 @@ def haar_wv_phi_jacobian(roots: ARRoots, m: np.ndarray) -> tuple[np.ndarray, np.
     (jacobian, abs_err) or None
         Arrays of shape ``(len(m), p)``: the derivatives and the estimated bound on their
         rounding error (both dimensionless, per unit sigma2); None where
-        the closed form does not apply: a group of near-repeated roots, or AR(1) with phi = 0.
+        the closed form does not apply: a group of near-repeated roots, or AR(1) with |phi|
+        below the smallest normal double (zero included).
     """
     p = roots.p
     z = roots.z
-    if any(len(g) > 1 for g in roots.groups) or (p == 1 and z[0] == 0):
-        return None  # (a simple root at zero is fine for p >= 2: z^e with e >= 0 below)
+    if any(len(g) > 1 for g in roots.groups) or (p == 1 and abs(z[0]) < _TINY):
+        # AR(1) divides dW/dlog z by z (e = -1 below): not at zero nor at a subnormal root,
+        # where 1/z overflows; a simple root at zero is fine for p >= 2 (e >= 0)
+        return None
     factors = [roots.pair_factors(r) for r in range(p)]
     diff = np.array([d for d, _ in factors])  # z_r - z_s (1 on the diagonal)
     one_minus = np.array([o for _, o in factors])  # 1 - z_r z_s
