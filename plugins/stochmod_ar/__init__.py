@@ -227,7 +227,8 @@ class AR(Process):
                 better = bad & ~(diff_err >= err)
                 col[better] = diff[better]
                 err[better] = diff_err[better]
-                lost = bad & ~(err <= _UNRESOLVED * np.abs(col))
+                # relative to the entry, or to 1e-3 wv where the derivative itself vanishes
+                lost = bad & ~(err <= _UNRESOLVED * np.maximum(np.abs(col), 1e-3 * base))
                 if np.any(lost):
                     warnings.warn(
                         f"AR.wv_jacobian at phi = {list(self.phi)}: d wv / d phi_{i + 1} is not "
