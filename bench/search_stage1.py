@@ -1,7 +1,7 @@
 """Study: the cap on the first (flattened, eq. 34) stage of the GMWM multi-start search.
 
 Fits the same seeded wavelet variances with the capped first stage
-(``stochmod.fit.gmwm._STAGE1_TOLERANCE``, tolerance 1e-8, at most 100 evaluations) and with
+(``stochmod.fit.engine.STAGE1_TOLERANCE``, tolerance 1e-8, at most 100 evaluations) and with
 the refinement's own settings (1e-12, 2000 evaluations), and prints, per model, how often the
 capped search ends at a worse objective (relative 1e-6) and the time of each variant.
 The numbers quoted in docs/gmwm.md ("Starting values and multi-start") come from this script.
@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 
 import stochmod
-import stochmod.fit.gmwm as gmwm_module
+import stochmod.fit.engine as engine
 
 FREQ = 100.0
 UNCAPPED = (1e-12, 2000)
@@ -30,7 +30,7 @@ CASES = {  # model to fit: (truth, samples)
 
 
 def main(seeds: int = 4) -> None:
-    capped = gmwm_module._STAGE1_TOLERANCE
+    capped = engine.STAGE1_TOLERANCE
     print(f"{'model':<12} {'fits':>4} {'worse':>5} {'capped s':>9} {'uncapped s':>10}")
     try:
         for name, (truth, n) in CASES.items():
@@ -40,14 +40,14 @@ def main(seeds: int = 4) -> None:
                 wv = stochmod.wvar(model.simulate(n, rng=seed), FREQ)
                 objective = {}
                 for setting in (UNCAPPED, capped):
-                    gmwm_module._STAGE1_TOLERANCE = setting
+                    engine.STAGE1_TOLERANCE = setting
                     start = time.perf_counter()
                     objective[setting] = stochmod.gmwm(wv, name, FREQ, rng=seed).objective
                     seconds[setting] += time.perf_counter() - start
                 worse += objective[capped] > objective[UNCAPPED] * (1 + 1e-6)
             print(f"{name:<12} {seeds:>4} {worse:>5} {seconds[capped]:>9.1f} {seconds[UNCAPPED]:>10.1f}")
     finally:
-        gmwm_module._STAGE1_TOLERANCE = capped
+        engine.STAGE1_TOLERANCE = capped
 
 
 if __name__ == "__main__":

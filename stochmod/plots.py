@@ -18,7 +18,7 @@ from stochmod.process import as_generator
 from stochmod.signal.wavelet_variance import wvar
 
 if TYPE_CHECKING:
-    from stochmod.fit.gmwm import GMWMResult
+    from stochmod.fit.results import GMWMResult
 
 __all__ = ["plot_fit", "save_fit_figure", "simulated_wv"]
 

@@ -64,7 +64,7 @@ from scipy import integrate
 from stochmod._validation import check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError
 from stochmod.params import get_domain, pacf_to_ar
-from stochmod.process import Process, _overrides, as_generator, simulate_block
+from stochmod.process import Process, as_generator, simulate_block
 from stochmod.reporting import format_number, format_table
 from stochmod.statespace import StateSpaceBlock, compose_steps
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
@@ -86,6 +86,7 @@ __all__ = [
     "check_state_space",
     "check_rediscretisation",
     "check_wv_jacobian",
+    "check_weighting",
 ]
 
 
@@ -98,6 +99,11 @@ RngLike = np.random.Generator | int
 
 
 # ---------------------------------------------------------------------------- helpers
+def _overrides(cls: type, name: str) -> bool:
+    """Whether the family class `cls` declares its own `name` (overrides the base class's)."""
+    return getattr(cls, name) is not getattr(Process, name)
+
+
 def _family_class(process: Process | type[Process]) -> type[Process]:
     cls = process if isinstance(process, type) else type(process)
     if not issubclass(cls, Process):
@@ -833,3 +839,137 @@ def check_family(process_or_cls: Process | type[Process], freq: float = 100.0, *
         instance=repr(target) if isinstance(target, Process) else cls.__name__,
         ran=names, passed=tuple(passed), failed=failed, skipped=skipped, figures=figures,
     )
+
+
+# ---------------------------------------------------------------------------- weightings
+def _weighting_matrix(weighting: Any, data: Any, what: str) -> Any:
+    """``weighting.matrix(data)`` with its Omega (and V) checked; AssertionError naming `what`."""
+    from stochmod.fit.weighting import check_weighting_matrix
+
+    try:
+        made = weighting.matrix(data)
+    except Exception as exc:  # noqa: BLE001 - any failure of a plugin is a conformance failure
+        raise AssertionError(f"weighting {weighting.name!r}: matrix() failed on {what}: {exc!r}") from exc
+    J = data.levels
+    try:
+        check_weighting_matrix(getattr(made, "omega", None), J, source=f"{what}: Omega")
+    except InputError as exc:
+        raise AssertionError(f"weighting {weighting.name!r}: {exc}") from None
+    V = getattr(made, "covariance", None)
+    if V is not None:
+        V = np.asarray(V, dtype=float)
+        if V.shape != (J, J) or not np.all(np.isfinite(V)) or np.any(np.diag(V) <= 0):
+            raise AssertionError(f"weighting {weighting.name!r}: {what}: the covariance V must be "
+                                 f"finite, (J, J) = {(J, J)}, with positive variances")
+        if not np.allclose(V, V.T, rtol=1e-10, atol=0.0):
+            raise AssertionError(f"weighting {weighting.name!r}: {what}: the covariance V is not symmetric")
+    return made
+
+
+def check_weighting(weighting: Any, model: Any, freq: float = 100.0, *, rng: RngLike = 0,
+                    n: int = 2**13, reps: int = 30, scale: float = 1e3) -> Figures:
+    """Check a GMWM weighting (the ``stochmod_weightings`` plugin point) against the contract.
+
+    The signal is `n` samples simulated from `model` (seeded); the pilot fit of a weighting
+    with ``needs_fit`` is the diagonal GMWM fit of the model's structure. Checked:
+
+    - ``name`` (non-empty str), ``description`` (str), ``needs_signal`` and ``needs_fit``
+      (bool) and a callable ``matrix``;
+    - ``matrix(data)`` gives Omega of shape (J, J), finite, symmetric, positive definite, and a
+      covariance V (when it gives one) finite, symmetric, with positive variances;
+    - the same input gives the same matrix (results reproduce);
+    - without ``needs_signal``, the WV alone suffices (``data.signal`` None);
+    - a change of the signal's unit (the signal times `scale`) changes Omega by a constant
+      factor only (rel 1e-5), so that the GMWM estimate does not depend on the unit;
+    - registered, ``stochmod.gmwm(..., weighting=name)`` resolves it and fits with that Omega.
+
+    Parameters
+    ----------
+    weighting : object
+        The weighting (an object of a ``stochmod_weightings`` hook).
+    model : Model, Process, str or dict
+        A model with every value given (``"GM(beta=2, sigma2=1) + WN(sigma2=1)"``), unit u.
+    freq : float
+        Sampling frequency, Hz.
+    rng : int or Generator
+        Seed of the simulation and of the weighting.
+    n : int
+        Signal length, samples.
+    reps : int
+        ``WeightingInput.reps`` (Monte Carlo replications a weighting may use).
+    scale : float
+        Factor of the unit change.
+
+    Returns
+    -------
+    dict
+        ``levels``, ``condition`` (of Omega), ``covariance`` (whether V is given),
+        ``scale_rel_error``, ``registered``, ``objective`` (of the registered fit, or None).
+
+    Raises
+    ------
+    AssertionError
+        The weighting breaks the contract (the message says how).
+    """
+    from stochmod import registry
+    from stochmod.fit.engine import resolve_model
+    from stochmod.fit.gmwm import gmwm
+    from stochmod.fit.weightings import WeightingInput
+    from stochmod.signal.wavelet_variance import wvar
+
+    name = getattr(weighting, "name", None)
+    if not isinstance(name, str) or not name:
+        raise AssertionError(f"{weighting!r} has no name (a non-empty str)")
+    if not isinstance(getattr(weighting, "description", None), str):
+        raise AssertionError(f"weighting {name!r} has no description (a str)")
+    for flag in ("needs_signal", "needs_fit"):
+        if not isinstance(getattr(weighting, flag, None), bool):
+            raise AssertionError(f"weighting {name!r}: {flag} must be a bool")
+    if not callable(getattr(weighting, "matrix", None)):
+        raise AssertionError(f"weighting {name!r} has no matrix(data) method")
+    freq = check_freq(freq)
+    n = check_positive_int(n, name="n", minimum=64)
+    truth = resolve_model(model, freq)
+    truth.vector()  # SpecError when a value is missing
+    seed = int(_children(rng, 1)[0].integers(2**31))
+    x = truth.simulate(n, seed)
+    structure = truth.freed()
+
+    def data(signal: np.ndarray, with_signal: bool = True) -> Any:
+        emp = wvar(signal, freq)
+        pilot = None
+        if weighting.needs_fit:
+            pilot = gmwm(signal, structure, freq, weighting="diagonal", levels=emp.wv.size, rng=seed)
+        return WeightingInput(emp, emp.wv.size, signal if with_signal else None, pilot,
+                              seed=seed, reps=reps)
+
+    base = data(x)
+    J = base.levels
+    made = _weighting_matrix(weighting, base, "the simulated signal")
+    omega = np.asarray(made.omega, dtype=float)
+    again = _weighting_matrix(weighting, base, "the same input again")
+    if not np.array_equal(np.asarray(again.omega, dtype=float), omega):
+        raise AssertionError(f"weighting {name!r}: the same input gives another matrix "
+                             "(draw randomness from data.seed)")
+    if not weighting.needs_signal:
+        _weighting_matrix(weighting, data(x, with_signal=False), "the wavelet variance alone")
+    scaled = np.asarray(_weighting_matrix(weighting, data(scale * x), "the signal in other units").omega,
+                        dtype=float)
+    a, b = omega / np.linalg.norm(omega), scaled / np.linalg.norm(scaled)
+    scale_error = float(np.max(np.abs(a - b)) / np.max(np.abs(a)))
+    if not scale_error <= 1e-5:
+        raise AssertionError(
+            f"weighting {name!r}: with the signal times {scale:g}, Omega is not a multiple of "
+            f"the original one (max relative difference {scale_error:.3g}): the GMWM estimate "
+            "would depend on the signal's unit")
+    registered = registry.weightings().get(name) is weighting
+    objective = None
+    if registered:
+        fit = gmwm(x, structure, freq, weighting=name, levels=J, rng=seed, bootstrap_reps=reps)
+        if fit.weighting != name or not np.array_equal(fit.omega, omega):
+            raise AssertionError(f"stochmod.gmwm(weighting={name!r}) does not fit with the "
+                                 "weighting's matrix")
+        objective = float(fit.objective)
+    return {"levels": J, "condition": float(np.linalg.cond(omega)),
+            "covariance": made.covariance is not None, "scale_rel_error": scale_error,
+            "registered": registered, "objective": objective}

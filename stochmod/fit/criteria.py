@@ -25,18 +25,15 @@ better), returned by the ``stochmod_criteria`` hook. This module registers the f
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
 
 from stochmod.errors import InputError
+from stochmod.fit.results import GMWMResult, negligible_components
 from stochmod.hookspecs import hookimpl
-from stochmod.fit.weighting import chi2_variance
 from stochmod.registry import criteria
-
-if TYPE_CHECKING:
-    from stochmod.fit.gmwm import GMWMResult
 
 __all__ = ["WaveletVarianceIC", "WVIC", "optimism", "identified", "negligible_components",
            "get_criterion",
@@ -82,20 +79,6 @@ def identified(fit: GMWMResult, tol: float = 1e-7) -> bool:
     _, _, s = _weighted_svd(fit)
     full_rank = bool(s.size == int(fit.free_mask.sum()) and s.size and s[-1] > tol * s[0])
     return full_rank and not negligible_components(fit)
-
-
-def negligible_components(fit: GMWMResult, fraction: float = 0.01) -> list[str]:
-    """Labels of fitted components whose wavelet variance stays below `fraction` of the
-    empirical WV's standard error at every level: they do not change the fit (their amplitude
-    ran to zero), so the candidate is the nested model without them in disguise."""
-    emp = fit.empirical
-    J = fit.levels
-    se = np.sqrt(chi2_variance(emp.wv[:J], emp.n_coef[:J], emp.levels[:J]))
-    return [
-        label
-        for label, proc in zip(fit.model.labels, fit.model.processes)
-        if np.all(proc.wv(J, fit.model.freq) < fraction * se)
-    ]
 
 
 def _weighted_svd(fit: GMWMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -13,8 +13,10 @@ Design choices:
 - Common random numbers: every evaluation seeds fresh generators from the same seed
   (``numpy.random.default_rng([rng, 29])``, spawned per simulated component, in the
   canonical component order), so ``phi*`` is a smooth, deterministic function of theta and
-  the ordinary least-squares machinery of :mod:`stochmod.fit.gmwm` (weightings, flattened
-  eq. 34 starts, multi-start) applies unchanged.
+  the ordinary least-squares machinery of :mod:`stochmod.fit.engine` (weightings, flattened
+  eq. 34 starts, multi-start) applies unchanged: :class:`SimulatedProblem` replaces the
+  engine's binding function, and the result carries the :class:`SimulatedBinding` as its
+  :class:`~stochmod.fit.results.Binding`.
 - Jacobian by finite differences on the unconstrained scale (forward during the search,
   central at the estimate); analytic columns for analytic components.
 - Bounded cost: the simulated length is ``min(R N, max(max_sim, N))`` samples
@@ -37,13 +39,15 @@ import numpy as np
 
 from stochmod._validation import check_positive_int
 from stochmod.errors import InputError, SpecError
-from stochmod.fit.gmwm import GMWMResult, _canonical, _Problem, _sandwich
+from stochmod.fit.engine import Problem, canonical, sandwich
+from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import data_covariance
 from stochmod.model import Model
 from stochmod.process import has_theoretical_wv
 from stochmod.signal.wavelet_variance import wvar
 
-__all__ = ["BINDINGS", "MAX_SIMULATED", "SimulatedBinding", "IndirectGMWMResult", "plan_binding"]
+__all__ = ["BINDINGS", "MAX_SIMULATED", "SimulatedBinding", "SimulatedProblem",
+           "IndirectGMWMResult", "plan_binding"]
 
 #: Names accepted by ``stochmod.gmwm(binding=...)``.
 BINDINGS = ("auto", "analytic", "simulated")
@@ -118,7 +122,7 @@ class SimulatedBinding:
         procs = [p for p, s in zip(model.processes, self.simulated) if s]
         if not procs:
             return None
-        sub = _canonical(Model(tuple(procs), model.freq))  # label-invariant stream assignment
+        sub = canonical(Model(tuple(procs), model.freq))  # label-invariant stream assignment
         children = np.random.default_rng([self.seed, _STREAM]).spawn(len(procs))
         paths = [self._path(i, p, sub.freq, g) for i, (p, g) in enumerate(zip(sub.processes, children))]
         return np.sum(paths, axis=0)
@@ -166,19 +170,39 @@ class SimulatedBinding:
                 D[:, i] = (self(model.from_unconstrained(up)) - base) / step
         return D[:, mask]
 
+    def wv(self, model: Model) -> np.ndarray:
+        """``phi*(theta)`` (the :class:`~stochmod.fit.results.Binding` protocol)."""
+        return self(model)
+
+    def natural_jacobian(self, model: Model, mask: np.ndarray) -> np.ndarray:
+        """``D`` on the natural scale of the free parameters: central differences with common
+        random numbers on the unconstrained scale, then the transform's inverse."""
+        D_u = self.jacobian(model, mask, central=True)
+        T = model.transform_jacobian(model.to_unconstrained())[np.ix_(mask, mask)]
+        return np.linalg.solve(T.T, D_u.T).T
+
+    def covariance(self, model: Model) -> np.ndarray:
+        """Covariance of ``phi*(theta)``: eq. 17 on the simulated series at the model
+        (J x J, unit^4; ``~ V N / n_sim`` when every component is simulated; zeros when none is)."""
+        y = self.series(model)
+        if y is None:
+            return np.zeros((self.levels, self.levels))
+        emp = wvar(y, model.freq, wavelet=self.wavelet, levels=self.levels)
+        return data_covariance(y, emp, self.levels)
+
     def problem(self, template: Model, nu_hat: np.ndarray, omega: np.ndarray,
-                mask: np.ndarray) -> _SimulatedProblem:
-        """The least-squares problem of eq. 20 with this binding (for ``gmwm``'s search)."""
-        return _SimulatedProblem(template, nu_hat, omega, mask, self)
+                mask: np.ndarray) -> SimulatedProblem:
+        """The least-squares problem of eq. 20 with this binding (the engine's search)."""
+        return SimulatedProblem(template, nu_hat, omega, mask, self)
 
-    def result_type(self) -> tuple[type, dict[str, Any]]:
-        """The result class and its extra fields (for ``gmwm``); drops the search's cached
-        paths so that the result does not hold them."""
+    def finished(self) -> SimulatedBinding:
+        """This binding with the search's cached paths dropped (so that a result holding it
+        does not hold them)."""
         self._paths.clear()
-        return IndirectGMWMResult, {"simulation": self}
+        return self
 
 
-class _SimulatedProblem(_Problem):
+class SimulatedProblem(Problem):
     """Eq. 20 with ``phi*`` of eq. 29 (values cached per point: the optimizer asks the
     residuals and the Jacobian at the same point)."""
 
@@ -211,62 +235,27 @@ class _SimulatedProblem(_Problem):
 class IndirectGMWMResult(GMWMResult):
     """A GMWM fit whose binding function was (partly) simulated (eq. 29).
 
-    Everything of :class:`~stochmod.fit.gmwm.GMWMResult`, with the model WV, the Jacobian
-    ``D`` and the covariance used by eqs. 22-27 taken from the simulated binding.
-
-    Attributes
-    ----------
-    simulation : SimulatedBinding
-        The binding function used (which components, simulated length, seed).
+    Everything of :class:`~stochmod.fit.results.GMWMResult`; its ``binding`` is the
+    :class:`SimulatedBinding` used, so the model WV, the Jacobian ``D`` and the covariance of
+    eqs. 22-27 are the simulated binding's (V is the data's plus the simulation's).
     """
 
-    simulation: SimulatedBinding | None = None
+    @property
+    def simulation(self) -> SimulatedBinding:
+        """The binding function used (which components, simulated length, seed)."""
+        return self.binding
 
-    @functools.cached_property
-    def _model_wv(self) -> np.ndarray:
-        return self.simulation(self.model)
-
-    def model_wv(self) -> np.ndarray:
-        """``phi*(theta_hat)``: the binding function at the estimate (levels 1..J), unit^2."""
-        return self._model_wv
-
-    @functools.cached_property
-    def _jacobian(self) -> np.ndarray:
-        """``D`` on the natural scale of the free parameters (central differences with
-        common random numbers on the unconstrained scale, then the transform's inverse)."""
-        mask = self.free_mask
-        D_u = self.simulation.jacobian(self.model, mask, central=True)
-        T = self.model.transform_jacobian(self.model.to_unconstrained())[np.ix_(mask, mask)]
-        return np.linalg.solve(T.T, D_u.T).T
-
-    @functools.cached_property
+    @property
     def simulation_covariance(self) -> np.ndarray:
-        """Covariance of ``phi*(theta)``: eq. 17 on the simulated series at the estimate
-        (J x J, unit^4; ``~ V N / n_sim`` when every component is simulated)."""
-        y = self.simulation.series(self.model)
-        if y is None:
-            return np.zeros((self.levels, self.levels))
-        emp = wvar(y, self.model.freq, wavelet=self.simulation.wavelet, levels=self.levels)
-        return data_covariance(y, emp, self.levels)
+        """Covariance of ``phi*(theta)`` at the estimate (:meth:`SimulatedBinding.covariance`)."""
+        return self.binding_covariance
 
     @functools.cached_property
     def cov_params_simulation(self) -> np.ndarray:
         """The part of :attr:`cov_params` due to the simulated binding, ``B V_sim B^T``: the
         Monte Carlo covariance of the estimate given the data (how far another seed or an
         analytic binding would move it). Shrinks as ``1 / n_sim``."""
-        return _sandwich(self._jacobian, self.omega, self.simulation_covariance)
-
-    @functools.cached_property
-    def wv_covariance(self) -> np.ndarray:
-        """Covariance of ``phi_hat - phi*(theta)`` (J x J, unit^4): the data's (as for the
-        analytic fit) plus the simulation's; used by eqs. 22-23 and the J-test."""
-        return GMWMResult.wv_covariance.func(self) + self.simulation_covariance
-
-    @functools.cached_property
-    def null_wv_covariance(self) -> np.ndarray:
-        """The model's covariance of the data's WV (:attr:`GMWMResult.null_wv_covariance`)
-        plus the simulation's."""
-        return GMWMResult.null_wv_covariance.func(self) + self.simulation_covariance
+        return sandwich(self.jacobian, self.omega, self.simulation_covariance)
 
     def summary(self) -> str:
         """The GMWM summary plus how the binding function was simulated."""

@@ -36,8 +36,10 @@ from scipy import optimize
 from stochmod._validation import as_signals, check_freq, check_positive_int
 from stochmod.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit import criteria as _criteria
-from stochmod.fit.gmwm import _BOUND, GMWMResult, _canonical, _Problem, _search
-from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, data_covariance, weighting_from_covariance
+from stochmod.fit.engine import Problem, SearchResult, refine, search
+from stochmod.fit.results import GMWMResult
+from stochmod.fit.weighting import check_weighting_matrix, data_covariance
+from stochmod.fit.weightings import WeightingInput, get_weighting, weighting_names
 from stochmod.io import Recording
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
@@ -50,9 +52,15 @@ __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nest
 #: Families of the default lattice.
 DEFAULT_FAMILIES = ("GM", "WN", "RW", "QN", "RR")
 
-#: Weightings usable in a selection (the bootstrap weighting depends on each model's own fit,
-#: so it cannot be shared by all candidates).
-SELECTION_WEIGHTINGS = tuple(w for w in WEIGHTINGS if w != "bootstrap")
+
+
+def __getattr__(name: str) -> Any:
+    """``SELECTION_WEIGHTINGS``: the registered weightings usable in a selection, at the time
+    of the access (a weighting that needs each model's own fit, such as the bootstrap, cannot
+    be shared by all candidates); :func:`stochmod.fit.weightings.weighting_names`."""
+    if name == "SELECTION_WEIGHTINGS":
+        return tuple(weighting_names(shared=True))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 _AUTO_PROGRESS = 8  # progress bar by default above this many fits
 _NEGLIGIBLE = 1e-30  # relative size of a padded component's WV (objective unchanged in float64)
@@ -200,19 +208,18 @@ class _Task:
         return not (self.starts or self.screen)
 
 
-def _prepare(item: tuple[np.ndarray, float, int | None, str]) -> _Column:
-    """Empirical WV and weighting of one signal (with V, eq. 17, for the optimal weighting)."""
-    x, freq, levels, weighting = item
+def _prepare(item: tuple[np.ndarray, float, int | None, Any, int]) -> _Column:
+    """Empirical WV and weighting matrix of one signal (with V when the weighting inverts it,
+    e.g. eq. 17 for the optimal weighting). The weighting object travels with the item, so a
+    weighting registered at run time works in worker processes too."""
+    x, freq, levels, scheme, seed = item
     emp = wvar(x, freq, levels=levels)
     J = emp.wv.size
     if np.any(emp.wv <= 0):
         raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
-    if weighting == "diagonal":
-        return _Column(emp, np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels)))
-    if weighting == "identity":
-        return _Column(emp, np.eye(J))
-    V = data_covariance(x, emp, J)
-    return _Column(emp, weighting_from_covariance(V), V)
+    made = scheme.matrix(WeightingInput(emp, J, x, seed=seed))
+    omega = check_weighting_matrix(made.omega, J, source=f"weighting {scheme.name!r}'s matrix")
+    return _Column(emp, omega, made.covariance)
 
 
 def _covariance(item: tuple[np.ndarray, WaveletVariance, int]) -> np.ndarray:
@@ -239,10 +246,9 @@ class _Stagnation:
                 raise StopIteration
 
 
-def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
-                  ) -> dict[str, Any]:
+def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray) -> SearchResult:
     """A child's fit: local least-squares searches of eq. 20 from its screened starts."""
-    problem = _Problem(base.start(nu_hat), nu_hat, task.shared.omega, mask)
+    problem = Problem(base.start(nu_hat), nu_hat, task.shared.omega, mask)
 
     def point(spec: dict) -> np.ndarray:
         return model_from_spec(spec, task.freq).to_unconstrained()[mask]
@@ -262,13 +268,8 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     best: dict[str, Any] | None = None
     nfev = 0
     for x0 in chosen:
-        extra = {"callback": _Stagnation()} if _HAS_CALLBACK else {}
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore", RuntimeWarning)
-            res = optimize.least_squares(
-                problem.residuals, np.clip(x0, -_BOUND, _BOUND), jac=problem.jacobian,
-                bounds=(-_BOUND, _BOUND), method="trf", x_scale="jac", xtol=_CHILD_TOL,
-                ftol=_CHILD_TOL, gtol=_CHILD_TOL, max_nfev=_CHILD_NFEV, **extra)
+        res = refine(problem.residuals, problem.jacobian, x0, _CHILD_TOL, _CHILD_NFEV,
+                     callback=_Stagnation() if _HAS_CALLBACK else None)
         nfev += res.nfev
         value = problem.safe_objective(res.x)
         if best is None or value < best["objective"]:
@@ -277,8 +278,8 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
                     "message": _STALL_MESSAGE if stalled else str(res.message)}
     if best is None or not np.isfinite(best["objective"]):
         raise EstimationError(f"GMWM failed to find a finite objective for {base.name}")
-    best.update(model=problem.model(best["x"]), nfev=nfev + len(pool), n_starts=len(chosen))
-    return best
+    return SearchResult(model=problem.model(best["x"]), nfev=nfev + len(pool),
+                        n_starts=len(chosen), **best)
 
 
 def _fit_task(task: _Task) -> GMWMResult:
@@ -289,19 +290,13 @@ def _fit_task(task: _Task) -> GMWMResult:
     base = model_from_spec(task.spec, task.freq)
     mask = base.free_mask()
     if task.root:
-        fit = _search(base, nu_hat, task.shared.omega, mask, *_ROOT_SEARCH, (), task.seed)
+        found = search(base, nu_hat, task.shared.omega, mask, *_ROOT_SEARCH, (), task.seed)
     else:
-        fit = _local_search(task, base, nu_hat, mask)
-    fitted = _canonical(fit["model"])
-    result = GMWMResult(
-        model=fitted, empirical=emp, objective=fit["objective"], weighting=task.weighting,
-        omega=task.shared.omega, levels=J, converged=fit["converged"], message=fit["message"],
-        n_starts=fit["n_starts"], n_evaluations=fit["nfev"],
-        free_names=tuple(np.asarray(fitted.param_names)[mask]), free_mask=mask,
-        covariance=task.shared.covariance, rng_seed=task.seed,
-    )
-    result._model_null_covariance  # the J-test's V, in the worker (cached, travels with it)
-    return result
+        found = _local_search(task, base, nu_hat, mask)
+    result = GMWMResult.from_search(
+        found, empirical=emp, omega=task.shared.omega, weighting=task.weighting, levels=J,
+        mask=mask, covariance=task.shared.covariance, rng_seed=task.seed)
+    return result.with_null_covariance()  # the J-test's V, in the worker (travels with it)
 
 
 def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | None:
@@ -609,8 +604,10 @@ def select(
         Largest count per family (default ``{"GM": 3}``, others 1).
     criterion : str
         Registered criterion (``"wvic"``, or a plugin's from the ``stochmod_criteria`` hook).
-    weighting : {"diagonal", "optimal", "identity"}
-        Weighting matrix Omega, the same for every candidate of a signal.
+    weighting : str
+        A registered weighting (``"diagonal"``, ``"optimal"``, ``"identity"`` or a plugin's)
+        that does not need each model's own fit: Omega, the same for every candidate of a
+        signal.
     executor : concurrent.futures.Executor, optional
         Runs the fits through ``executor.submit`` (thread or process pools, a dask client's
         ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers, shut down on
@@ -634,9 +631,10 @@ def select(
     InputError, SpecError
         Bad signal, empty candidates, unknown family or criterion, too many parameters.
     """
-    if weighting not in SELECTION_WEIGHTINGS:
-        raise InputError(f"unknown or unusable weighting {weighting!r} for selection; choose one "
-                         f"of {list(SELECTION_WEIGHTINGS)} (one Omega must serve every candidate)")
+    scheme = get_weighting(weighting)
+    if scheme.needs_fit:
+        raise InputError(f"weighting {weighting!r} depends on each model's own fit and cannot be "
+                         f"shared by the candidates; choose one of {weighting_names(shared=True)}")
     crit = _criteria.get_criterion(criterion)
     seed = _base_seed(rng)
     if levels is not None:
@@ -653,7 +651,7 @@ def select(
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
-        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, weighting))
+        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed))
                                        for k in range(len(cols))]]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():

@@ -22,7 +22,8 @@ from numpy.typing import ArrayLike
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import InputError
-from stochmod.fit.gmwm import GMWMResult, _resolve_model
+from stochmod.fit.engine import resolve_model
+from stochmod.fit.results import GMWMResult
 from stochmod.model import Model
 from stochmod.process import Process, as_generator, has_theoretical_wv
 from stochmod.reporting import format_table
@@ -334,7 +335,7 @@ def validate(
     if fit is not None:
         model = fit.model
         if x_or_wv is None:
-            x_or_wv = fit._signal if fit._signal is not None else fit.empirical
+            x_or_wv = fit.signal if fit.signal is not None else fit.empirical
         if levels is None:
             levels = fit.levels
     else:
@@ -356,7 +357,7 @@ def validate(
     freq = check_freq(freq)
     if any(f != freq for f in known):
         raise InputError(f"freq = {freq} Hz disagrees with the model's or the data's ({known} Hz)")
-    model = _resolve_model(model, freq)
+    model = resolve_model(model, freq)
     model.vector()  # SpecError when a parameter is free: fit the model first
     R = check_positive_int(R, name="R", minimum=2)
     wavelet = emp.wavelet if emp is not None else (fit.empirical.wavelet if fit is not None else "haar")

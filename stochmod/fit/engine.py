@@ -1,0 +1,350 @@
+"""The GMWM fitting engine: the least-squares problem of eq. 20, its multi-start search, the
+canonical order of repeated components and the sandwich covariance of eqs. 22-23.
+
+This is the documented internal API that :func:`stochmod.gmwm`, indirect inference
+(:mod:`stochmod.fit.indirect`) and model selection (:mod:`stochmod.fit.selection`) share; a new
+estimator built on the GMWM criterion uses it the same way (see docs/architecture.md):
+
+1. :func:`resolve_model` turns a spec into a :class:`~stochmod.model.Model` bound to the
+   sampling frequency;
+2. :class:`Problem` is eq. 20, ``|| L (nu_hat - phi(theta)) ||^2`` with ``Omega = L' L``, over
+   the free parameters on the unconstrained scale (``phi`` is the model's theoretical WV; a
+   subclass may replace the binding function ``phi`` and its Jacobian, as indirect inference
+   does);
+3. :func:`search` runs the seeded multi-start (flattened criterion of eq. 34, then eq. 20)
+   and :func:`refine` one bounded local search; both return a :class:`SearchResult`;
+4. :func:`canonical` orders repeated components so that fits compare across runs;
+5. :func:`sandwich` gives ``B V B'`` (eqs. 22-23) from the Jacobian ``D``, ``Omega`` and ``V``.
+
+:class:`stochmod.fit.results.GMWMResult` turns a :class:`SearchResult` into a result with
+inference.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import attrs
+import numpy as np
+from scipy import optimize
+
+from stochmod.errors import EstimationError, SpecError
+from stochmod.model import Model, as_model, model_from_spec
+from stochmod.process import Process
+
+__all__ = [
+    "BOUND",
+    "STAGE1_TOLERANCE",
+    "REFINE_TOLERANCE",
+    "Problem",
+    "SearchResult",
+    "resolve_model",
+    "refine",
+    "search",
+    "canonical",
+    "sandwich",
+]
+
+#: Bound on every unconstrained parameter, ``|theta_u| <= BOUND``: keeps exp() finite while
+#: allowing any realistic scale.
+BOUND = 300.0
+#: Stage 1 of :func:`search` (the flattened criterion of eq. 34) only ranks starting points
+#: for the refinement on eq. 20 itself: (tolerance, evaluation cap), looser than
+#: :data:`REFINE_TOLERANCE`, which crawled along flat valleys of weakly identified models.
+#: Read at each call (bench/search_stage1.py varies it).
+STAGE1_TOLERANCE = (1e-8, 100)
+#: (tolerance, evaluation cap) of the refinement on eq. 20.
+REFINE_TOLERANCE = (1e-12, 2000)
+
+_FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError)
+
+
+def resolve_model(model: Model | Process | str | dict, freq: float) -> Model:
+    """The composite model of a spec (``"2*GM+WN"``, dict), a Process or a Model, bound to
+    `freq` (Hz)."""
+    if isinstance(model, (str, dict)):
+        return model_from_spec(model, freq)
+    return as_model(model).bind(freq)
+
+
+class Problem:
+    """The least-squares form of eq. 20 over the free, unconstrained parameters.
+
+    Parameters
+    ----------
+    template : Model
+        A model with every value given (the start); its fixed values are kept.
+    nu_hat : ndarray (J,)
+        Empirical wavelet variance at levels 1..J, unit^2.
+    omega : ndarray (J, J)
+        Symmetric positive definite weighting matrix, unit^-4.
+    mask : ndarray of bool
+        The free parameters among ``template.vector()``.
+
+    Notes
+    -----
+    The binding function ``phi(x)`` (the model's WV at the free unconstrained values `x`) and
+    its Jacobian ``dphi(x)`` are the two methods a subclass overrides to change the binding
+    (indirect inference: :class:`stochmod.fit.indirect.SimulatedProblem`); residuals,
+    Jacobians and the flattened criterion of eq. 34 follow from them.
+    """
+
+    def __init__(self, template: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray):
+        self.template = template
+        self.nu_hat = nu_hat
+        self.levels = nu_hat.size
+        self.mask = mask
+        self.theta_full = template.to_unconstrained()
+        # Omega = L^T L: L is the transposed Cholesky factor of Omega
+        self.L = np.linalg.cholesky(omega).T
+        self.omega = omega
+
+    def model(self, x: np.ndarray) -> Model:
+        """The model at free unconstrained values `x`."""
+        theta = self.theta_full.copy()
+        theta[self.mask] = x
+        return self.template.from_unconstrained(theta)
+
+    def phi(self, x: np.ndarray) -> np.ndarray:
+        """Binding function: the model's Haar WV at `x`, levels 1..J, unit^2."""
+        return self.model(x).wv(self.levels)
+
+    def dphi(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`phi` on the free unconstrained scale, shape (J, n_free)."""
+        theta = self.theta_full.copy()
+        theta[self.mask] = x
+        m = self.template.from_unconstrained(theta)
+        D = m.wv_jacobian(self.levels) @ m.transform_jacobian(theta)
+        return D[:, self.mask]
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """``L (nu_hat - phi(x))``: eq. 20 is their sum of squares."""
+        return self.L @ (self.nu_hat - self.phi(x))
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residuals`."""
+        return -self.L @ self.dphi(x)
+
+    def flat_residuals(self, x: np.ndarray) -> np.ndarray:
+        """``1 - phi(x) / nu_hat``: the flattened criterion of eq. 34 (dimensionless)."""
+        return 1.0 - self.phi(x) / self.nu_hat
+
+    def flat_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`flat_residuals`."""
+        return -self.dphi(x) / self.nu_hat[:, None]
+
+    def objective(self, x: np.ndarray) -> float:
+        """Eq. 20 at `x` (dimensionless)."""
+        r = self.residuals(x)
+        return float(r @ r)
+
+    def safe_objective(self, x: np.ndarray) -> float:
+        """Eq. 20 at `x`, inf where the model cannot be evaluated."""
+        try:
+            value = self.objective(x)
+        except (ArithmeticError, ValueError):
+            return np.inf
+        return value if np.isfinite(value) else np.inf
+
+
+@attrs.frozen
+class SearchResult:
+    """The best point of a search of eq. 20.
+
+    Attributes
+    ----------
+    model : Model
+        The model at the best point (not yet in canonical order, see :func:`canonical`).
+    x : ndarray
+        Free unconstrained values at the best point.
+    objective : float
+        Eq. 20 there.
+    converged : bool
+        Whether the best local search met its tolerances.
+    message : str
+        The optimizer's message for the best local search.
+    n_starts : int
+        Number of starting points (or local searches) considered.
+    nfev : int
+        Function evaluations over all local searches.
+    """
+
+    model: Model
+    x: np.ndarray = attrs.field(eq=False, repr=False)
+    objective: float
+    converged: bool
+    message: str
+    n_starts: int
+    nfev: int
+
+
+def refine(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray],
+           x0: np.ndarray, tol: float = REFINE_TOLERANCE[0], max_nfev: int = REFINE_TOLERANCE[1],
+           *, callback: Callable[..., Any] | None = None) -> optimize.OptimizeResult:
+    """One bounded local least-squares search (``scipy.optimize.least_squares``, trf, Jacobian
+    scaling) from `x0` clipped to ``[-BOUND, BOUND]``, with `tol` as xtol, ftol and gtol.
+
+    `callback` (scipy >= 1.16) may stop the search by raising ``StopIteration``. Floating
+    point warnings of the model's evaluations are silenced (a trial step may leave a
+    family's reach; the search then backs off).
+    """
+    extra = {} if callback is None else {"callback": callback}
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return optimize.least_squares(
+            fun, np.clip(x0, -BOUND, BOUND), jac=jac, bounds=(-BOUND, BOUND),
+            method="trf", x_scale="jac", xtol=tol, ftol=tol, gtol=tol, max_nfev=max_nfev, **extra,
+        )
+
+
+def canonical(model: Model) -> Model:
+    """Order repeated components of one family by their first parameter, largest first
+    (GM: fastest first), so that fitted models compare across runs (no label switching)."""
+    procs = list(model.processes)
+    for family in {p.family for p in procs}:
+        slots = [i for i, p in enumerate(procs) if p.family == family]
+        ordered = sorted((procs[i] for i in slots), key=lambda p: -float(p.vector()[0]))
+        for i, p in zip(slots, ordered):
+            procs[i] = p
+    return attrs.evolve(model, processes=tuple(procs))
+
+
+def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
+           n_starts: int, n_random: int, starts: Sequence[Model | str | dict], seed: int,
+           n_refine: int = 3, *,
+           problem_factory: Callable[..., Problem] = Problem) -> SearchResult:
+    """Seeded multi-start minimisation of eq. 20.
+
+    Candidates: the families' guesses and their alternatives, the given `starts`, `n_starts`
+    seeded perturbations of the guesses, and the best of `n_random` random points screened by
+    the objective. Each candidate first descends the flattened criterion of eq. 34 (cheap,
+    well scaled; :data:`STAGE1_TOLERANCE`); the `n_refine` best distinct results (by eq. 20),
+    and every given start as it is, are then refined on eq. 20 itself (:func:`refine`). The
+    best refined point wins.
+
+    Parameters
+    ----------
+    base : Model
+        The model to fit, bound to its sampling frequency; parameters with values are fixed.
+    nu_hat : ndarray (J,)
+        Empirical WV, unit^2.
+    omega : ndarray (J, J)
+        Weighting matrix.
+    mask : ndarray of bool
+        ``base.free_mask()``.
+    n_starts, n_random : int
+        Seeded perturbed starts, and random points screened by the objective.
+    starts : sequence of Model or spec
+        Extra starting models with every value given.
+    seed : int
+        Seed of every random choice.
+    n_refine : int
+        Stage-1 results refined on eq. 20.
+    problem_factory : callable
+        ``(template, nu_hat, omega, mask) -> Problem`` (a subclass changes the binding).
+
+    Raises
+    ------
+    SpecError
+        A start that does not match `base`.
+    EstimationError
+        No start gives a finite objective.
+    """
+    gen = np.random.default_rng(seed)
+    template = base.start(nu_hat)
+    problem = problem_factory(template, nu_hat, omega, mask)
+    candidates = [template.to_unconstrained()[mask]]
+    given = []
+    for s in starts:
+        s = resolve_model(s, base.freq)
+        if s.n_params != base.n_params or s.is_free:
+            raise SpecError(f"start {s.name} does not match model {base.name} with all values given")
+        given.append(s.to_unconstrained()[mask])
+    candidates.extend(given)
+    candidates.extend(alt.to_unconstrained()[mask] for alt in base.start_alternatives(nu_hat))
+    for _ in range(n_starts):
+        candidates.append(base.start(nu_hat, rng=gen).to_unconstrained()[mask])
+    if n_random:
+        centre = candidates[0]
+        cloud = centre + gen.normal(0.0, 3.0, size=(n_random, centre.size))
+        values = np.array([problem.safe_objective(x) for x in cloud])
+        best_cloud = np.argsort(values)[: max(2, n_starts // 2)]
+        candidates.extend(cloud[i] for i in best_cloud if np.isfinite(values[i]))
+
+    nfev = 0
+    stage1: list[tuple[float, np.ndarray]] = [(problem.safe_objective(x), x) for x in given]
+    for x0 in candidates:
+        try:
+            flat = refine(problem.flat_residuals, problem.flat_jacobian, x0, *STAGE1_TOLERANCE)
+        except _FAILURES:
+            continue
+        nfev += flat.nfev
+        stage1.append((problem.safe_objective(flat.x), flat.x))
+        stage1.append((problem.safe_objective(x0), x0))
+    stage1 = [(v, x) for v, x in stage1 if np.isfinite(v)]
+    stage1.sort(key=lambda item: item[0])
+    chosen: list[np.ndarray] = []
+    for _, x in stage1:
+        if not any(np.allclose(x, c, rtol=1e-3, atol=1e-3) for c in chosen):
+            chosen.append(x)
+        if len(chosen) >= n_refine:
+            break
+    chosen.extend(g for g in given if not any(g is c for c in chosen))
+
+    best: dict[str, Any] | None = None
+    for x1 in chosen:
+        try:
+            res = refine(problem.residuals, problem.jacobian, x1)
+        except _FAILURES:
+            continue
+        nfev += res.nfev
+        value = problem.safe_objective(res.x)
+        if best is None or value < best["objective"]:
+            best = {"x": res.x, "objective": value, "converged": bool(res.success),
+                    "message": str(res.message)}
+    if best is None or not np.isfinite(best["objective"]):
+        raise EstimationError(f"GMWM failed to find a finite objective for {base.name} from any start")
+    return SearchResult(model=problem.model(best["x"]), nfev=nfev, n_starts=len(candidates), **best)
+
+
+def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """``B V B^T`` with ``B = (D^T W D)^{-1} D^T W`` (eqs. 22-23), symmetrised.
+
+    Parameters
+    ----------
+    D : ndarray (J, p)
+        Jacobian of the binding function at the estimate (natural scale), unit^2 per
+        parameter unit.
+    W : ndarray (J, J)
+        Weighting matrix Omega.
+    V : ndarray (J, J)
+        Covariance of the empirical WV, unit^4.
+
+    Returns
+    -------
+    ndarray (p, p)
+        Covariance of the estimate, in the parameters' units squared. Computed with D's
+        columns scaled to unit norm (a parameter the WV barely sees has a tiny column and a
+        huge row of B), then scaled back: a variance beyond the float range is inf.
+
+    Raises
+    ------
+    EstimationError
+        A parameter the WV does not depend on, or ``D^T W D`` singular.
+    """
+    norms = np.linalg.norm(D, axis=0)
+    if not np.all(np.isfinite(norms) & (norms > 0)):
+        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
+    Ds = D / norms
+    try:
+        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
+    except np.linalg.LinAlgError:
+        raise EstimationError(
+            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
+        ) from None
+    Cs = Bs @ V @ Bs.T
+    Cs = 0.5 * (Cs + Cs.T)
+    with np.errstate(over="ignore"):
+        return Cs / np.outer(norms, norms)
