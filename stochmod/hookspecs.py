@@ -40,7 +40,11 @@ class StochmodSpec:
 
     @hookspec
     def stochmod_weightings(self) -> list[Any]:
-        """Return fusion weightings for redundant sensors (objects with ``name`` and ``weights(signals)``)."""
+        """Return GMWM weightings: objects with ``name``, ``description``, ``needs_signal``,
+        ``needs_fit`` and ``matrix(data) -> WeightingMatrix`` building the matrix Omega of
+        eq. 20 (see :mod:`stochmod.fit.weightings`); ``stochmod.gmwm``, ``stochmod.select``
+        and the CLI find them by name. (Fusion weights of redundant sensors are not
+        weightings but combiners.)"""
 
     @hookspec
     def stochmod_readers(self) -> list[Any]:

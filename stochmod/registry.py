@@ -26,12 +26,14 @@ __all__ = [
     "get_process",
     "processes",
     "criteria",
+    "weightings",
 ]
 
 _lock = threading.RLock()
 _manager: pluggy.PluginManager | None = None
-#: The core's own hook implementations (the WVIC criterion), registered with the entry points.
-_BUILTIN_PLUGINS = ("stochmod.fit.criteria",)
+#: The core's own hook implementations (the WVIC criterion, the GMWM weightings), registered
+#: with the entry points.
+_BUILTIN_PLUGINS = ("stochmod.fit.criteria", "stochmod.fit.weightings")
 
 
 def plugin_manager() -> pluggy.PluginManager:
@@ -58,6 +60,7 @@ def register_plugin(plugin: object, name: str | None = None) -> None:
     pm.register(plugin, name=name)
     try:
         processes()  # validate names now, not at first use
+        weightings()
     except StochmodError:
         pm.unregister(plugin)
         raise
@@ -106,3 +109,25 @@ def get_process(name: str) -> type[Process]:
 def criteria() -> dict[str, Any]:
     """Return the registered model-selection criteria keyed by name."""
     return {c.name: c for batch in plugin_manager().hook.stochmod_criteria() for c in batch}
+
+
+def weightings() -> dict[str, Any]:
+    """Return the registered GMWM weightings keyed by name, sorted (``stochmod_weightings``).
+
+    Raises
+    ------
+    StochmodError
+        A weighting without a ``name`` or ``matrix``, or two plugins with one name.
+    """
+    found: dict[str, Any] = {}
+    for batch in plugin_manager().hook.stochmod_weightings():
+        for w in batch:
+            name = getattr(w, "name", None)
+            if not isinstance(name, str) or not name or not callable(getattr(w, "matrix", None)):
+                raise StochmodError(f"plugin returned {w!r}, which is not a weighting (a name "
+                                    "and matrix(data) are required)")
+            if name in found and found[name] is not w:
+                raise StochmodError(f"two plugins register a weighting named {name!r}: "
+                                    f"{type(found[name]).__module__} and {type(w).__module__}")
+            found[name] = w
+    return dict(sorted(found.items()))

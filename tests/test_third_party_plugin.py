@@ -26,8 +26,9 @@ from hypothesis import strategies as st
 
 import stochmod
 from stochmod.errors import DomainError, InputError, SpecError
+from stochmod.fit.weightings import get_weighting, weighting_names
 from stochmod.signal.wavelet_variance import wvar
-from stochmod.testing import check_family
+from stochmod.testing import check_family, check_weighting
 
 FREQ = 100.0
 PLUGIN_DIR = Path(__file__).resolve().parents[1] / "docs" / "examples" / "third_party_plugin"
@@ -80,6 +81,7 @@ def test_registration_is_undone(ma1: ModuleType) -> None:
         stochmod.unregister_plugin(ma1)
         try:
             assert "MA1" not in stochmod.process_names()
+            assert "relative" not in weighting_names()
         finally:
             stochmod.register_plugin(ma1)
     assert "MA1" in stochmod.process_names()
@@ -170,3 +172,21 @@ def test_bad_input_raises(ma1: ModuleType) -> None:
         ma1.MA1.example(FREQ).simulate(10, FREQ, None)
     with pytest.raises(InputError, match="levels 1 and 2"):
         ma1.MA1().start(np.array([1.0]), FREQ)
+
+
+def test_the_relative_weighting_gives_the_closed_form_white_noise_estimate(ma1: ModuleType) -> None:
+    assert get_weighting("relative") is ma1.RELATIVE
+    x = np.random.default_rng(4).normal(0.0, 3.0, 2**13)
+    emp = wvar(x, FREQ)
+    fit = stochmod.gmwm(x, "WN", FREQ, weighting="relative")
+    assert fit.weighting == "relative"
+    np.testing.assert_allclose(fit.omega, np.diag(emp.wv**-2.0), rtol=1e-15)
+    # eq. 20 with Omega = diag(nu^-2) is sum_j (1 - s2 a_j)^2 with a_j = 2^-j / nu_j
+    a = 2.0**-emp.levels / emp.wv
+    assert fit.model.vector()[0] == pytest.approx(a.sum() / (a * a).sum(), rel=1e-8)
+    assert fit.objective == pytest.approx(np.sum((1 - fit.model_wv() / emp.wv) ** 2), rel=1e-10)
+
+
+def test_the_relative_weighting_passes_the_conformance_kit(ma1: ModuleType) -> None:
+    figures = check_weighting(ma1.RELATIVE, "MA1(theta=0.4, sigma2=2.0) + RW(sigma2=1e-4)", FREQ, rng=3)
+    assert figures["registered"] and figures["scale_rel_error"] < 1e-12

@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.fit.selection import DEFAULT_FAMILIES, SELECTION_WEIGHTINGS, select
+from stochmod.fit.selection import DEFAULT_FAMILIES, select
 
 __all__ = ["register", "run", "add_selection_arguments", "selection_options"]
 
@@ -22,8 +22,9 @@ def add_selection_arguments(p: argparse.ArgumentParser) -> None:
                    help="largest number of GM processes in the lattice (default 3)")
     p.add_argument("--criterion", default="wvic",
                    help="selection criterion registered by a plugin (default wvic)")
-    p.add_argument("--weighting", choices=SELECTION_WEIGHTINGS, default="diagonal",
-                   help="GMWM weighting matrix shared by all candidates (default diagonal)")
+    p.add_argument("--weighting", default="diagonal", metavar="NAME",
+                   help="registered GMWM weighting shared by all candidates: diagonal (default), "
+                        "optimal, identity, or a plugin's")
     p.add_argument("--levels", type=int, default=None, metavar="J",
                    help="number of wavelet levels (default: all the signal allows)")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start searches (default 0)")

@@ -1,14 +1,24 @@
-"""Covariance of the empirical wavelet variance and the GMWM weighting matrices built from it."""
+"""Covariance of the empirical wavelet variance and the GMWM weighting matrices built from it.
+
+The weightings themselves (``"diagonal"``, ``"optimal"`` ...) are plugins of the
+``stochmod_weightings`` hook, found by name through the registry
+(:mod:`stochmod.fit.weightings`); this module holds the numerics they share.
+"""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from stochmod import registry
+from stochmod._validation import check_positive_int
 from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.model import Model
-from stochmod.signal.wavelet_variance import WaveletVariance
-from stochmod.theory import wv_covariance_from_psd
+from stochmod.process import as_generator
+from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 from stochmod.signal.wv_covariance import wv_covariance
+from stochmod.theory import wv_covariance_from_psd
 
 __all__ = [
     "WEIGHTINGS",
@@ -17,12 +27,19 @@ __all__ = [
     "chi2_variance",
     "decoupled_covariance",
     "data_covariance",
+    "bootstrap_covariance",
     "model_covariance",
     "weighting_from_covariance",
+    "check_weighting_matrix",
 ]
 
-#: Names accepted by ``stochmod.gmwm(weighting=...)``.
-WEIGHTINGS = ("diagonal", "optimal", "bootstrap", "identity")
+
+def __getattr__(name: str) -> Any:
+    """``WEIGHTINGS``: the names of the registered weightings, at the time of the access
+    (kept for compatibility; :func:`stochmod.fit.weightings.weighting_names`)."""
+    if name == "WEIGHTINGS":
+        return tuple(registry.weightings())
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: Smallest equivalent degrees of freedom ``M_j / 2^j`` of a level whose covariances with the
 #: other levels are taken from the eq. 17 estimate (see :func:`decoupled_covariance`).
@@ -117,6 +134,49 @@ def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndar
     with the deep levels decoupled (:func:`decoupled_covariance`), unit^4."""
     V = wv_covariance(x, levels, wavelet=emp.wavelet)
     return decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+
+
+def bootstrap_covariance(model: Model, n: int, levels: int, *, reps: int = 100,
+                         rng: np.random.Generator | int = 0, wavelet: str = "haar") -> np.ndarray:
+    """Parametric bootstrap covariance of the empirical WV (eq. 35): `reps` simulations of
+    `n` samples from `model` (all values given, bound to its frequency), seeded; J x J, unit^4."""
+    reps = check_positive_int(reps, name="reps", minimum=2)
+    gen = as_generator(rng)
+    sims = np.array([
+        wvar(model.simulate(n, g), model.freq, wavelet=wavelet, levels=levels).wv
+        for g in gen.spawn(reps)
+    ])
+    return np.cov(sims, rowvar=False)
+
+
+def check_weighting_matrix(omega: Any, levels: int, *, source: str = "the weighting matrix"
+                           ) -> np.ndarray:
+    """`omega` checked as a GMWM weighting matrix: shape (J, J), finite, symmetric (to 1e-6 on
+    the correlation scale: an inverse computed by solves is symmetric only to rounding) and
+    positive definite; returned as a float64 array, unchanged.
+
+    Raises
+    ------
+    InputError
+        Naming `source` and the failed property.
+    """
+    omega = np.asarray(omega, dtype=np.float64)
+    J = int(levels)
+    if omega.shape != (J, J):
+        raise InputError(f"{source} must have shape {(J, J)} (levels used), got {omega.shape}")
+    if not np.all(np.isfinite(omega)):
+        raise InputError(f"{source} has non-finite entries")
+    d = np.diag(omega)
+    if np.any(d <= 0):
+        raise InputError(f"{source} is not positive definite (non-positive diagonal)")
+    scale = np.sqrt(np.outer(d, d))
+    if np.any(np.abs(omega - omega.T) > 1e-6 * scale):
+        raise InputError(f"{source} is not symmetric")
+    try:
+        np.linalg.cholesky(0.5 * (omega + omega.T) / scale)
+    except np.linalg.LinAlgError:
+        raise InputError(f"{source} is not positive definite") from None
+    return omega
 
 
 def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") -> np.ndarray:

@@ -1,4 +1,5 @@
-"""MA(1): an example of a stochmod process family written as a third party would.
+"""MA(1): an example of a stochmod process family written as a third party would, with a GMWM
+weighting (:mod:`stochmod_ma1.weighting`, ``"relative"``) registered by the same package.
 
 ``X_t = e_t + theta e_{t-1}``, ``e_t ~ N(0, sigma2)`` i.i.d., ``|theta| < 1`` (invertible).
 Only public stochmod names are used. The family deliberately declares no wavelet variance:
@@ -19,7 +20,9 @@ from numpy.typing import ArrayLike
 
 import stochmod
 
-__all__ = ["MA1", "stochmod_processes"]
+from stochmod_ma1.weighting import RELATIVE, RelativeWeighting, stochmod_weightings
+
+__all__ = ["MA1", "stochmod_processes", "RelativeWeighting", "RELATIVE", "stochmod_weightings"]
 
 __version__ = "0.1.0"
 
