@@ -128,6 +128,11 @@ def test_unknown_and_unshareable_weightings_are_refused_with_the_registered_name
         stochmod.select(x, FREQ, candidates=["WN"], weighting="bootstrap")
     with pytest.raises(InputError, match="'optimal' needs the signal"):
         stochmod.gmwm(stochmod.wvar(x, FREQ), "WN", weighting="optimal")
+    data = WeightingInput(stochmod.wvar(x, FREQ), 8)  # no signal, no pilot
+    with pytest.raises(InputError, match="'optimal' needs the signal"):
+        get_weighting("optimal").matrix(data)
+    with pytest.raises(InputError, match="'bootstrap' needs a first fit"):
+        get_weighting("bootstrap").matrix(data)
 
 
 def test_the_cli_resolves_weightings_through_the_registry(tmp_path, capsys, inverse4) -> None:

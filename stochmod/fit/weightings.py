@@ -44,6 +44,7 @@ __all__ = [
     "WeightingInput",
     "WeightingMatrix",
     "Weighting",
+    "InverseCovarianceWeighting",
     "DiagonalWeighting",
     "IdentityWeighting",
     "OptimalWeighting",
@@ -90,6 +91,15 @@ class WeightingInput:
     def wv(self) -> np.ndarray:
         """The empirical WV at levels 1..J, unit^2."""
         return np.asarray(self.empirical.wv[: self.levels], float)
+
+    def require(self, field: str, weighting: str) -> Any:
+        """``signal`` or ``pilot``, or an InputError saying that `weighting` needs it."""
+        value = getattr(self, field)
+        if value is None:
+            need = {"signal": "the signal, not only its wavelet variance",
+                    "pilot": "a first fit of the model (pilot)"}[field]
+            raise InputError(f"weighting={weighting!r} needs {need}")
+        return value
 
 
 @attrs.frozen
@@ -144,8 +154,24 @@ class IdentityWeighting(Weighting):
         return WeightingMatrix(np.eye(data.levels))
 
 
+class InverseCovarianceWeighting(Weighting):
+    """Base class of the weightings ``Omega = V^{-1}``: a subclass implements
+    :meth:`covariance`; the inverse is computed stably
+    (:func:`~stochmod.fit.weighting.weighting_from_covariance`) and V is returned with it, so
+    that inference reuses it."""
+
+    @abc.abstractmethod
+    def covariance(self, data: WeightingInput) -> np.ndarray:
+        """The covariance V of the empirical WV at levels 1..J (J x J, unit^4)."""
+
+    def matrix(self, data: WeightingInput) -> WeightingMatrix:
+        """``V^{-1}`` and V."""
+        V = self.covariance(data)
+        return WeightingMatrix(weighting_from_covariance(V), V)
+
+
 @attrs.frozen
-class OptimalWeighting(Weighting):
+class OptimalWeighting(InverseCovarianceWeighting):
     """``Omega = V^{-1}`` with V the asymptotic covariance of eq. 17 on the signal, deep
     levels decoupled (:func:`~stochmod.fit.weighting.data_covariance`)."""
 
@@ -153,16 +179,13 @@ class OptimalWeighting(Weighting):
     description: ClassVar[str] = "inverse of the eq. 17 covariance of the empirical WV (needs the signal)"
     needs_signal: ClassVar[bool] = True
 
-    def matrix(self, data: WeightingInput) -> WeightingMatrix:
-        """V on the signal and its inverse."""
-        if data.signal is None:
-            raise InputError("weighting='optimal' needs the signal, not only its wavelet variance")
-        V = data_covariance(data.signal, data.empirical, data.levels)
-        return WeightingMatrix(weighting_from_covariance(V), V)
+    def covariance(self, data: WeightingInput) -> np.ndarray:
+        """Eq. 17 on the signal."""
+        return data_covariance(data.require("signal", self.name), data.empirical, data.levels)
 
 
 @attrs.frozen
-class BootstrapWeighting(Weighting):
+class BootstrapWeighting(InverseCovarianceWeighting):
     """``Omega = V^{-1}`` with V a parametric bootstrap (eq. 35) at a first diagonal fit: `reps`
     seeded simulations of the data's length."""
 
@@ -170,14 +193,11 @@ class BootstrapWeighting(Weighting):
     description: ClassVar[str] = "inverse of a parametric-bootstrap covariance at a first diagonal fit"
     needs_fit: ClassVar[bool] = True
 
-    def matrix(self, data: WeightingInput) -> WeightingMatrix:
-        """The bootstrap covariance at the pilot fit and its inverse."""
-        if data.pilot is None:
-            raise InputError("weighting='bootstrap' needs a first fit of the model (pilot)")
-        emp = data.empirical
-        V = bootstrap_covariance(data.pilot.model, emp.n, data.levels, reps=data.reps,
-                                 rng=data.seed, wavelet=emp.wavelet)
-        return WeightingMatrix(weighting_from_covariance(V), V)
+    def covariance(self, data: WeightingInput) -> np.ndarray:
+        """The bootstrap covariance at the pilot fit."""
+        pilot, emp = data.require("pilot", self.name), data.empirical
+        return bootstrap_covariance(pilot.model, emp.n, data.levels, reps=data.reps,
+                                    rng=data.seed, wavelet=emp.wavelet)
 
 
 #: The first-party weightings (registered by :func:`stochmod_weightings`).
