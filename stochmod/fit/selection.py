@@ -22,7 +22,6 @@ import concurrent.futures
 import contextlib
 import inspect
 import itertools
-import warnings
 from collections import Counter, defaultdict
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
