@@ -1,0 +1,117 @@
+"""The public fitting engine (stochmod.fit.engine) and the results built from it
+(stochmod.fit.results).
+
+Truth: eq. 20 written out as a quadratic form; the sandwich of eqs. 22-23 by explicit
+inverses, and its optimal-weighting identity (D' V^-1 D)^-1; a known order of GM components;
+the fit of stochmod.gmwm on the same data.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import functools
+
+import numpy as np
+import pytest
+
+import stochmod
+from stochmod.errors import EstimationError, SpecError
+from stochmod.fit import results as results_module
+from stochmod.fit.engine import BOUND, Problem, canonical, refine, resolve_model, sandwich, search
+from stochmod.fit.indirect import IndirectGMWMResult
+from stochmod.fit.results import GMWMResult
+from stochmod.fit.weightings import WeightingInput, get_weighting
+
+FREQ = 100.0
+TRUTH = "GM(beta=2.0, sigma2=1.0) + WN(sigma2=0.5)"
+
+
+@pytest.fixture(scope="module")
+def signal() -> np.ndarray:
+    return stochmod.model_from_spec(TRUTH, FREQ).simulate(2**13, rng=11)
+
+
+def test_problem_is_eq_20(signal: np.ndarray) -> None:
+    emp = stochmod.wvar(signal, FREQ)
+    base = resolve_model("GM+WN", FREQ)
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(emp.wv.size,) * 2)
+    omega = A @ A.T + emp.wv.size * np.eye(emp.wv.size)  # a full SPD weighting
+    problem = Problem(base.start(emp.wv), emp.wv, omega, base.free_mask())
+    x = problem.theta_full[base.free_mask()] + 0.3
+    r = emp.wv - problem.model(x).wv(emp.wv.size)
+    assert problem.objective(x) == pytest.approx(r @ omega @ r, rel=1e-12)
+    assert problem.safe_objective(np.full(x.size, np.nan)) == np.inf
+
+
+def test_sandwich_against_explicit_inverses() -> None:
+    rng = np.random.default_rng(1)
+    D = rng.normal(size=(9, 3)) * [1.0, 1e-4, 1e3]  # badly scaled columns
+    A, C = rng.normal(size=(9, 9)), rng.normal(size=(9, 9))
+    W, V = A @ A.T + np.eye(9), C @ C.T + np.eye(9)
+    B = np.linalg.inv(D.T @ W @ D) @ D.T @ W
+    np.testing.assert_allclose(sandwich(D, W, V), B @ V @ B.T, rtol=1e-9)
+    # optimal weighting: B V B' = (D' V^-1 D)^-1 (eq. 26)
+    np.testing.assert_allclose(sandwich(D, np.linalg.inv(V), V),
+                               np.linalg.inv(D.T @ np.linalg.solve(V, D)), rtol=1e-9)
+    with pytest.raises(EstimationError, match="does not depend on some parameter"):
+        sandwich(np.column_stack([D[:, 0], np.zeros(9)]), W, V)
+    with pytest.raises(EstimationError, match="not identified"):
+        sandwich(np.column_stack([D[:, 0], 2 * D[:, 0]]), W, V)
+
+
+def test_canonical_orders_repeated_components_fastest_first() -> None:
+    model = stochmod.model_from_spec("GM(beta=0.5, sigma2=1.0) + WN(sigma2=1.0) + GM(beta=5.0, sigma2=2.0)"
+                                     " + GM(beta=2.0, sigma2=3.0)", FREQ)
+    ordered = canonical(model)
+    assert [p.family for p in ordered.processes] == ["GM", "WN", "GM", "GM"]
+    assert [p.vector()[0] for p in ordered.processes if p.family == "GM"] == [5.0, 2.0, 0.5]
+    assert canonical(ordered) == ordered
+
+
+def test_search_and_from_search_reproduce_gmwm(signal: np.ndarray) -> None:
+    emp = stochmod.wvar(signal, FREQ)
+    J = emp.wv.size
+    base = resolve_model("GM+WN", FREQ)
+    mask = base.free_mask()
+    omega = get_weighting("diagonal").matrix(WeightingInput(emp, J)).omega
+    found = search(base, emp.wv, omega, mask, 4, 64, (), 0)
+    again = search(base, emp.wv, omega, mask, 4, 64, (), 0)
+    assert found == again  # seeded
+    fit = GMWMResult.from_search(found, empirical=emp, omega=omega, weighting="diagonal", levels=J,
+                                 mask=mask, signal=signal)
+    ref = stochmod.gmwm(signal, "GM+WN", FREQ)
+    np.testing.assert_array_equal(fit.model.vector(), ref.model.vector())
+    np.testing.assert_array_equal(fit.std_errors, ref.std_errors)
+    assert fit.jtest == ref.jtest and fit.free_names == ("GM.beta", "GM.sigma2", "WN.sigma2")
+    with pytest.raises(SpecError, match="does not match"):
+        search(base, emp.wv, omega, mask, 0, 0, ["WN(sigma2=1.0)"], 0)
+
+
+def test_refine_stays_within_the_bound() -> None:
+    res = refine(lambda x: x - 1e6, lambda x: np.eye(x.size), np.array([1e4, 0.0]))
+    np.testing.assert_allclose(res.x, [BOUND, BOUND])
+
+
+def test_selection_carries_the_model_covariance_computed_in_the_worker(signal, monkeypatch) -> None:
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        sel = stochmod.select(signal, FREQ, candidates=["WN", "GM+WN"], executor=pool, progress=False)
+    fit = sel.fits["GM+WN"]
+    assert fit.null_covariance is not None and fit.covariance is sel.wv_covariance
+    expected = stochmod.fit.weighting.model_covariance(fit.model, fit.empirical.n_coef, "haar")
+    np.testing.assert_allclose(fit.null_covariance, expected, rtol=1e-12)
+    jtest = fit.jtest
+
+    def fail(*args, **kwargs):
+        raise AssertionError("the model covariance was computed again")
+
+    monkeypatch.setattr(results_module, "model_covariance", fail)
+    fresh = fit.with_data_covariance(fit.covariance)  # a copy: nothing cached, fields kept
+    assert fresh.null_covariance is fit.null_covariance and fresh.jtest == jtest
+
+
+def test_results_compose_and_never_override_cached_properties() -> None:
+    base = {n for n, v in vars(GMWMResult).items() if isinstance(v, functools.cached_property)}
+    assert {"wv_covariance", "null_wv_covariance", "jacobian", "cov_params", "jtest"} <= base
+    overridden = base & set(vars(IndirectGMWMResult))
+    assert not overridden, f"IndirectGMWMResult overrides cached properties {overridden}"
