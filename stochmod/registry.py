@@ -26,6 +26,8 @@ __all__ = [
     "get_process",
     "processes",
     "criteria",
+    "readers",
+    "reader_names",
 ]
 
 _lock = threading.RLock()
@@ -58,6 +60,7 @@ def register_plugin(plugin: object, name: str | None = None) -> None:
     pm.register(plugin, name=name)
     try:
         processes()  # validate names now, not at first use
+        readers()
     except StochmodError:
         pm.unregister(plugin)
         raise
@@ -106,3 +109,38 @@ def get_process(name: str) -> type[Process]:
 def criteria() -> dict[str, Any]:
     """Return the registered model-selection criteria keyed by name."""
     return {c.name: c for batch in plugin_manager().hook.stochmod_criteria() for c in batch}
+
+
+def _check_reader(obj: Any) -> str:
+    name = getattr(obj, "name", None)
+    if not isinstance(name, str) or not name:
+        raise StochmodError(f"plugin returned reader {obj!r} without a name")
+    suffixes = getattr(obj, "suffixes", ())
+    if not isinstance(suffixes, tuple) or not all(isinstance(s, str) for s in suffixes):
+        raise StochmodError(f"reader {name!r}: suffixes must be a tuple of str, got {suffixes!r}")
+    if not (callable(getattr(obj, "read", None)) and callable(getattr(obj, "sniff", None))):
+        raise StochmodError(f"reader {name!r} needs callable read(path, **options) and sniff(path)")
+    return name
+
+
+def readers() -> dict[str, Any]:
+    """Return the registered log-format readers keyed by name (hook ``stochmod_readers``).
+
+    Raises
+    ------
+    StochmodError
+        A reader without a name, suffixes or methods, or two readers of one name.
+    """
+    found: dict[str, Any] = {}
+    for batch in reversed(plugin_manager().hook.stochmod_readers()):  # registration order
+        for obj in batch:
+            name = _check_reader(obj)
+            if name in found and found[name] is not obj:
+                raise StochmodError(f"two plugins register a reader named {name!r}")
+            found[name] = obj
+    return found
+
+
+def reader_names() -> list[str]:
+    """Return the names of the registered readers, in registration order."""
+    return list(readers())

@@ -19,7 +19,9 @@ from numpy.typing import ArrayLike
 
 import stochmod
 
-__all__ = ["MA1", "stochmod_processes"]
+from stochmod_ma1.jsonl import JsonLinesReader
+
+__all__ = ["MA1", "stochmod_processes", "JsonLinesReader", "stochmod_readers"]
 
 __version__ = "0.1.0"
 
@@ -160,3 +162,9 @@ class MA1(stochmod.Process):
 def stochmod_processes() -> list[type[stochmod.Process]]:
     """Register MA1."""
     return [MA1]
+
+
+@stochmod.hookimpl
+def stochmod_readers() -> list[JsonLinesReader]:
+    """Register the JSON Lines reader (a log format, see jsonl.py)."""
+    return [JsonLinesReader()]
