@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from pathlib import Path
 from typing import ClassVar
 
@@ -14,6 +15,8 @@ from stochmod.io import Reader, Recording
 from stochmod_io_text._columns import find_time_column, split_header, time_scale
 
 __all__ = ["TextReader"]
+
+_HEADER_CELL = re.compile(r"[^\s\[]+(?:\s*\[[^\]]*\])?")
 
 
 def _is_float(text: str) -> bool:
@@ -29,12 +32,16 @@ def _rows(path: Path) -> list[list[str]]:
     lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise InputError(f"{path} holds no data rows")
-    try:
-        delimiter = csv.Sniffer().sniff(lines[0], delimiters=",;\t ").delimiter
+    try:  # sniffed on the second line: a header such as "gyro_x [deg/s]" holds spaces
+        delimiter = csv.Sniffer().sniff(lines[min(1, len(lines) - 1)], delimiters=",;\t ").delimiter
     except csv.Error:
         delimiter = ","
     rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter, skipinitialspace=True))
-    return [[c for c in row if c != ""] if delimiter == " " else row for row in rows]
+    if delimiter != " ":
+        return rows
+    rows = [[c for c in row if c != ""] for row in rows]
+    rows[0] = _HEADER_CELL.findall(lines[0])  # "t [s] gyro_x [deg/s]": a unit joins its name
+    return rows
 
 
 def _table(path: Path, rows: list[list[str]], first_line: int) -> np.ndarray:

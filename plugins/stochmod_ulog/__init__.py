@@ -84,7 +84,10 @@ class ULogReader(Reader):
         if topic is not None and topic not in IMU_TOPICS:
             raise InputError(f"{path}: topic {topic!r} is not an IMU topic the ulog reader knows; "
                              f"choose one of {', '.join(IMU_TOPICS)}")
-        log = pyulog.ULog(str(path), message_name_filter_list=wanted)
+        try:
+            log = pyulog.ULog(str(path), message_name_filter_list=wanted)
+        except getattr(pyulog, "ULogException", ValueError) as exc:  # not a ValueError in pyulog 1.x
+            raise InputError(f"cannot read {path} as ULog: {exc}") from None
         found = {(d.name, d.multi_id): d for d in log.data_list}
         present = sorted({name for name, _ in found})
         if topic is None:
@@ -93,8 +96,9 @@ class ULogReader(Reader):
             topic = next(t for t in IMU_TOPICS if t in present)
         instances = sorted(i for name, i in found if name == topic)
         if not instances:
+            logged = pyulog.ULog(str(path), message_name_filter_list=list(IMU_TOPICS)).data_list
             raise InputError(f"{path} has no topic {topic!r}; IMU topics in the log: "
-                             f"{', '.join(present) or 'none'}")
+                             f"{', '.join(sorted({d.name for d in logged})) or 'none'}")
         if int(instance) not in instances:
             raise InputError(f"{path}: topic {topic!r} has no instance {instance}; "
                              f"instances: {', '.join(map(str, instances))}")

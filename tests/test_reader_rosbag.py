@@ -1,0 +1,119 @@
+"""ROS 1 and ROS 2 bag reader round trips on bags written with rosbags' writers.
+
+Truth: the samples and integer nanosecond header stamps written; the rate they were written
+at; the positions of the samples left out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stochmod.errors import InputError
+from stochmod.io import read_recording
+from stochmod.registry import readers
+from stochmod.testing import check_reader
+
+pytest.importorskip("rosbags")
+from stochmod_rosbag.write import write_imu_bag  # noqa: E402
+
+RATE = 200.0
+PERIOD_NS = 5_000_000
+EPOCH_NS = 1_733_100_000_123_456_789  # a Unix time: seconds lose ~0.2 us in float64
+
+
+def _imu(n: int, seed: int, drop: list[int] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    k = np.setdiff1d(np.arange(n), drop or [])
+    rng = np.random.default_rng(seed)
+    gyro = rng.normal(0, 0.01, (k.size, 3))
+    accel = rng.normal(0, 0.05, (k.size, 3)) + [0.0, 0.0, 9.80665]
+    return EPOCH_NS + PERIOD_NS * k, gyro, accel
+
+
+@pytest.mark.parametrize(("ros", "storage", "name"), [(2, "sqlite3", "bag2"), (2, "mcap", "bag2m"),
+                                                      (1, "sqlite3", "bag1.bag")])
+def test_round_trip_samples_rate_and_stamps(tmp_path: Path, ros: int, storage: str, name: str) -> None:
+    stamps, gyro, accel = _imu(400, seed=ros)
+    path = write_imu_bag(tmp_path / name, stamps, gyro, accel, ros=ros, storage=storage, topic="/imu0")
+    rec = read_recording(path, topic="/imu0")
+    truth = np.hstack([gyro, accel])
+    np.testing.assert_array_equal(rec.data, truth)
+    assert rec.columns == ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+    assert rec.units == ("rad/s",) * 3 + ("m/s^2",) * 3
+    assert rec.time_origin == EPOCH_NS * 1e-9
+    np.testing.assert_allclose(rec.time, (stamps - EPOCH_NS) * 1e-9, rtol=0, atol=1e-15)
+    assert rec.freq == pytest.approx(RATE, rel=1e-12)
+    assert rec.timing.jitter_max < 1e-12 and not rec.timing.has_gaps
+    check_reader(readers()["rosbag"], path, expected=truth, topic="/imu0")
+
+
+def test_ros2_bag_is_its_folder_or_its_storage_file(tmp_path: Path) -> None:
+    stamps, gyro, accel = _imu(50, seed=3)
+    folder = write_imu_bag(tmp_path / "run", stamps, gyro, accel)
+    by_folder = read_recording(folder)  # one Imu topic: no --topic needed
+    (db3,) = folder.glob("*.db3")
+    np.testing.assert_array_equal(read_recording(db3).data, by_folder.data)
+    assert readers()["rosbag"].sniff(folder) and not readers()["rosbag"].sniff(tmp_path)
+
+
+def test_bag_receive_stamps(tmp_path: Path) -> None:
+    stamps, gyro, accel = _imu(60, seed=4)
+    path = write_imu_bag(tmp_path / "late", stamps, gyro, accel, receive_delay_ns=2_000_000)
+    rec = read_recording(path, stamp="bag")
+    assert rec.time_origin == (EPOCH_NS + 2_000_000) * 1e-9
+    np.testing.assert_allclose(rec.time, (stamps - EPOCH_NS) * 1e-9, atol=1e-15)
+    with pytest.raises(InputError, match="stamp must be 'header' or 'bag'"):
+        read_recording(path, stamp="receive")
+
+
+def test_gaps_in_header_stamps(tmp_path: Path) -> None:
+    stamps, gyro, accel = _imu(300, seed=5, drop=[40, 41, 200])
+    path = write_imu_bag(tmp_path / "gaps", stamps, gyro, accel)
+    with pytest.raises(InputError, match=r"2 gap\(s\).*3 sample\(s\) missing at 200 Hz.*after sample 39 "
+                                         r"\(t = 0.195 s\).*after sample 197 \(t = 0.995 s\)"):
+        read_recording(path)
+    rec = read_recording(path, split_gaps=True)
+    assert [(g.index, g.missing) for g in rec.timing.gaps] == [(39, 2), (197, 1)]
+    assert [p.data.shape[0] for p in rec.segments()] == [40, 158, 99]
+    assert rec.freq == pytest.approx(RATE, rel=1e-12)
+
+
+def test_topic_errors(tmp_path: Path) -> None:
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    string = store.types["std_msgs/msg/String"]
+    path = tmp_path / "chatter"
+    with Writer(path, version=Writer.VERSION_LATEST) as writer:
+        conn = writer.add_connection("/chatter", string.__msgtype__, typestore=store)
+        writer.write(conn, 1, store.serialize_cdr(string(data="hi"), string.__msgtype__))
+    with pytest.raises(InputError, match=r"holds 0 sensor_msgs/msg/Imu topics \(none\): choose one"):
+        read_recording(path)
+    with pytest.raises(InputError, match="topic '/chatter' carries std_msgs/msg/String, not sensor_msgs/msg/Imu"):
+        read_recording(path, topic="/chatter")
+    with pytest.raises(InputError, match="has no topic '/imu'"):
+        read_recording(path, topic="/imu")
+
+
+def test_cli_reads_a_bag_by_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from stochmod.cli import main
+    from stochmod.signal.wavelet_variance import wvar
+
+    stamps, gyro, accel = _imu(4096, seed=6)
+    path = write_imu_bag(tmp_path / "cli", stamps, gyro, accel, topic="/imu/data")
+    assert main(["wv", str(path), "--topic", "/imu/data", "--column", "gyro_y", "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["freq"] == pytest.approx(RATE, rel=1e-12)
+    np.testing.assert_allclose(out["columns"]["gyro_y"]["wv"], wvar(gyro[:, 1], RATE).wv, rtol=1e-12)
+    assert "4096 samples at 200 Hz from the time stamps, 0 gap(s)" in captured.err
+    assert main(["calibrate", str(path), "--topic", "/imu/data", "--column", "accel_z", "--no-plots",
+                 "--candidates", "WN", "RW+WN", "--out", str(tmp_path / "out"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["freq"] == pytest.approx(RATE, rel=1e-12) and report["n"] == 4096
+    assert list(report["columns"]) == ["accel_z"]
