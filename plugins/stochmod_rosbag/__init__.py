@@ -21,6 +21,7 @@ import numpy as np
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.io import Reader, Recording, import_optional
+from stochmod_rosbag._imu_layout import decode
 
 __all__ = ["RosbagReader", "IMU_TYPE", "stochmod_readers"]
 
@@ -52,6 +53,17 @@ def _choose_topic(path: Path, connections: list[Any], topic: str | None) -> str:
     return topic
 
 
+def _deserialise(bag: Any, messages: list[tuple[Any, int, Any]]) -> tuple[np.ndarray, np.ndarray]:
+    """Samples and header stamps (ns) of each message through rosbags' deserialiser."""
+    rows, stamps = [], []
+    for conn, _, raw in messages:
+        msg = bag.deserialize(raw, conn.msgtype)
+        w, a, st = msg.angular_velocity, msg.linear_acceleration, msg.header.stamp
+        rows.append((w.x, w.y, w.z, a.x, a.y, a.z))
+        stamps.append(st.sec * 10**9 + st.nanosec)
+    return np.asarray(rows, dtype=np.float64), np.asarray(stamps, dtype=np.int64)
+
+
 class RosbagReader(Reader):
     """ROS 1 ``.bag`` files and ROS 2 bag folders, ``sensor_msgs/msg/Imu`` through rosbags."""
 
@@ -76,24 +88,18 @@ class RosbagReader(Reader):
             with AnyReader([root], default_typestore=get_typestore(Stores.LATEST)) as bag:
                 name = _choose_topic(path, bag.connections, topic)
                 chosen = [c for c in bag.connections if c.topic == name and c.msgtype == IMU_TYPE]
-                rows, sec, nsec, received = [], [], [], []
-                for conn, t_bag, raw in bag.messages(connections=chosen):
-                    msg = bag.deserialize(raw, conn.msgtype)
-                    w, a, st = msg.angular_velocity, msg.linear_acceleration, msg.header.stamp
-                    rows.append((w.x, w.y, w.z, a.x, a.y, a.z))
-                    sec.append(st.sec)
-                    nsec.append(st.nanosec)
-                    received.append(t_bag)
+                messages = [(conn, t_bag, raw) for conn, t_bag, raw in bag.messages(connections=chosen)]
+                if not messages:
+                    raise InputError(f"{path}: topic {name!r} holds no messages")
+                decoded = decode([raw for _, _, raw in messages], ros2=bag.is2)
+                if decoded is None:  # mixed layouts: rosbags deserialises each message
+                    decoded = _deserialise(bag, messages)
         except AnyReaderError as exc:
             raise InputError(f"cannot read {path} as a ROS bag: {exc}") from None
-        if not rows:
-            raise InputError(f"{path}: topic {name!r} holds no messages")
-        if stamp == "header":
-            ns = np.asarray(sec, dtype=np.int64) * 10**9 + np.asarray(nsec, dtype=np.int64)
-        else:
-            ns = np.asarray(received, dtype=np.int64)
+        data, header_ns = decoded
+        ns = header_ns if stamp == "header" else np.array([t for _, t, _ in messages], dtype=np.int64)
         # seconds after the first stamp: exact in float64, where Unix seconds would lose ~0.2 us
-        return Recording(data=np.asarray(rows, dtype=np.float64), columns=_COLUMNS, path=str(path),
+        return Recording(data=data, columns=_COLUMNS, path=str(path),
                          time=(ns - ns[0]) * 1e-9, time_origin=ns[0] * 1e-9, units=_UNITS)
 
 
