@@ -27,6 +27,7 @@ import numpy as np
 from stochmod._validation import as_signals
 from stochmod.errors import InputError, StochmodError
 from stochmod.registry import readers
+from stochmod.reporting import format_table
 from stochmod.timing import DEFAULT_GAP_FACTOR, TimingReport, analyse_timing
 from stochmod.units import parse_unit
 
@@ -113,6 +114,15 @@ class Recording:
         return attrs.evolve(self, data=self.data[:, idx],
                             columns=tuple(self.columns[i] for i in idx), units=units)
 
+    def summary(self) -> str:
+        """Columns with units and ranges, the sampling rate, and the time-stamp report."""
+        rows = [[c, u or "?", float(np.min(x)), float(np.mean(x)), float(np.max(x))]
+                for c, u, x in zip(self.columns, self.units or (None,) * len(self.columns), self.data.T)]
+        rate = "unknown rate" if self.freq is None else f"{self.freq:.6g} Hz"
+        text = format_table(["column", "unit", "min", "mean", "max"], rows,
+                            title=f"{self.path or 'recording'}: {self.data.shape[0]} samples, {rate}")
+        return text + ("" if self.timing is None else "\n\n" + self.timing.summary())
+
     def unit_map(self) -> dict[str, str]:
         """Column name -> unit, for the columns whose unit is known."""
         return {c: u for c, u in zip(self.columns, self.units or ()) if u}
@@ -139,7 +149,14 @@ class Recording:
             A unit that does not parse.
         """
         given = [unit] * len(self.columns) if unit is not None else list(self.units or [None] * len(self.columns))
-        parsed = [None if u is None else parse_unit(u) for u in given]
+        parsed = []
+        for column, u in zip(self.columns, given):
+            try:
+                parsed.append(None if u is None else parse_unit(u))
+            except InputError as exc:
+                source = "the unit given" if unit is not None else f"{self.path or 'the recording'}'s header"
+                raise InputError(f"column {column!r}: {source} says {u!r}, which is not a unit stochmod "
+                                 f"knows ({exc}); give the data's unit explicitly (--unit)") from None
         if all(p is None for p in parsed):
             return self
         scale = np.array([1.0 if p is None else p.scale for p in parsed])

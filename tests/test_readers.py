@@ -256,3 +256,26 @@ def test_cli_gap_is_an_error_that_says_where(tmp_path: Path, capsys: pytest.Capt
 def test_cli_reader_options_refused_for_the_bundled_example(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["calibrate", "--topic", "/imu", "--unit", "deg/s"]) == 2
     assert "--topic, --unit apply to a FILE" in capsys.readouterr().err
+
+
+def test_cli_readers_lists_and_inspects(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["readers", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["ulog"]["options"] == ["topic", "instance"] and ".bag" in listed["rosbag"]["suffixes"]
+    keep = np.setdiff1d(np.arange(50), [20, 21])
+    path = _csv(tmp_path / "g.csv", ["t [ms]", "x [deg/s]"], np.column_stack([keep * 10.0, np.ones(keep.size)]))
+    assert main(["readers", str(path), "--json"]) == 0  # gaps are reported, not refused
+    out = json.loads(capsys.readouterr().out)
+    assert out["units"] == ["deg/s"] and out["freq"] == pytest.approx(100.0, rel=1e-9)
+    assert out["timing"]["gaps"] == [[19, pytest.approx(0.19), pytest.approx(0.03), 2]]
+    assert main(["readers", str(path)]) == 0
+    assert "after sample" in capsys.readouterr().out
+
+
+def test_unknown_header_unit_is_an_error_naming_the_column(tmp_path: Path) -> None:
+    path = _csv(tmp_path / "lsb.csv", ["gyro [LSB]", "accel [mg]"], RNG.normal(size=(4, 2)))
+    rec = read_recording(path)
+    with pytest.raises(InputError, match=r"column 'gyro': .*header says 'LSB'.*--unit"):
+        rec.to_si()
+    assert rec.select(["accel"]).to_si().units == ("m/s^2",)  # only the columns kept matter
+    np.testing.assert_allclose(rec.to_si("deg/s").data, rec.data * math.pi / 180.0, rtol=1e-15)
