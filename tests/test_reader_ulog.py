@@ -138,3 +138,17 @@ def test_not_a_ulog_file(tmp_path: Path) -> None:
     path.write_bytes(b"not a log at all, just text")
     with pytest.raises(InputError, match="broken.ulg"):
         read_recording(path)
+
+
+def test_log_without_imu_topics(tmp_path: Path) -> None:
+    stamps = _stamps(20)
+    fields = [("uint64_t", "timestamp", 1), ("float", "q", 4)]
+    attitude = Topic("vehicle_attitude", fields, {"timestamp": stamps,
+                                                  "q": np.tile(np.float32([1, 0, 0, 0]), (20, 1))})
+    path = write_ulog(tmp_path / "att.ulg", [attitude])
+    with pytest.raises(InputError, match="holds none of the IMU topics sensor_combined, vehicle_imu"):
+        read_recording(path)
+    renamed = tmp_path / "att.log"  # found by its magic bytes whatever the suffix
+    renamed.write_bytes(path.read_bytes())
+    with pytest.raises(InputError, match="holds none of the IMU topics"):
+        read_recording(renamed)
