@@ -20,10 +20,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from _timing import best_of
-from stochmod.io import read_recording
 from stochmod_rosbag.write import write_imu_bag
+
+from stochmod.io import read_recording
 
 RATE = 200.0
 TOPIC = "/imu"
@@ -58,12 +58,18 @@ def main(minutes: float = 60.0) -> None:
         assert np.array_equal(rec.data, np.hstack([gyro, accel])) and raw_loop(bag) == n
         t_sm = best_of(lambda: read_recording(bag, topic=TOPIC), repeat=2)
         t_raw = best_of(lambda: raw_loop(bag), repeat=2)
-    print(f"ROS 2 bag (sqlite3), {n:,} sensor_msgs/Imu messages = {minutes:g} min at {RATE:g} Hz "
-          f"(written in {t_write:.1f} s)")
+    print(
+        f"ROS 2 bag (sqlite3), {n:,} sensor_msgs/Imu messages = {minutes:g} min at {RATE:g} Hz "
+        f"(written in {t_write:.1f} s)"
+    )
     print(f"stochmod read_recording              {t_sm:8.2f} s  ({t_sm / n * 1e6:5.1f} us/message)")
-    print(f"rosbags raw deserialisation loop     {t_raw:8.2f} s  ({t_raw / n * 1e6:5.1f} us/message)")
-    print(f"ratio stochmod / rosbags = {t_sm / t_raw:.2f} (target <= 2); rate read "
-          f"{rec.freq:.6f} Hz, {len(rec.timing.gaps)} gaps")
+    print(
+        f"rosbags raw deserialisation loop     {t_raw:8.2f} s  ({t_raw / n * 1e6:5.1f} us/message)"
+    )
+    print(
+        f"ratio stochmod / rosbags = {t_sm / t_raw:.2f} (target <= 2); rate read "
+        f"{rec.freq:.6f} Hz, {len(rec.timing.gaps)} gaps"
+    )
 
 
 if __name__ == "__main__":

@@ -80,7 +80,9 @@ class Recording:
     def __attrs_post_init__(self) -> None:
         n, k = np.shape(self.data)[0], len(self.columns)
         if self.time is not None and self.time.shape != (n,):
-            raise InputError(f"{self.path or 'recording'}: {self.time.size} time stamps for {n} samples")
+            raise InputError(
+                f"{self.path or 'recording'}: {self.time.size} time stamps for {n} samples"
+            )
         if self.units is not None and len(self.units) != k:
             raise InputError(f"{self.path or 'recording'}: {len(self.units)} units for {k} columns")
 
@@ -96,7 +98,8 @@ class Recording:
             index = int(key)
         except (TypeError, ValueError):
             raise InputError(
-                f"no column {key!r} in {self.path or 'the recording'}; columns are {list(self.columns)}"
+                f"no column {key!r} in {self.path or 'the recording'}; "
+                f"columns are {list(self.columns)}"
             ) from None
         if not -len(self.columns) <= index < len(self.columns):
             raise InputError(
@@ -105,29 +108,35 @@ class Recording:
             )
         return index % len(self.columns)
 
-    def select(self, keys: list[str | int] | None) -> "Recording":
+    def select(self, keys: list[str | int] | None) -> Recording:
         """Return the recording restricted to `keys` (all columns when None)."""
         if not keys:
             return self
         idx = [self.column_index(k) for k in keys]
         units = None if self.units is None else tuple(self.units[i] for i in idx)
-        return attrs.evolve(self, data=self.data[:, idx],
-                            columns=tuple(self.columns[i] for i in idx), units=units)
+        return attrs.evolve(
+            self, data=self.data[:, idx], columns=tuple(self.columns[i] for i in idx), units=units
+        )
 
     def summary(self) -> str:
         """Columns with units and ranges, the sampling rate, and the time-stamp report."""
-        rows = [[c, u or "?", float(np.min(x)), float(np.mean(x)), float(np.max(x))]
-                for c, u, x in zip(self.columns, self.units or (None,) * len(self.columns), self.data.T)]
+        rows = [
+            [c, u or "?", float(np.min(x)), float(np.mean(x)), float(np.max(x))]
+            for c, u, x in zip(self.columns, self.units or (None,) * len(self.columns), self.data.T)
+        ]
         rate = "unknown rate" if self.freq is None else f"{self.freq:.6g} Hz"
-        text = format_table(["column", "unit", "min", "mean", "max"], rows,
-                            title=f"{self.path or 'recording'}: {self.data.shape[0]} samples, {rate}")
+        text = format_table(
+            ["column", "unit", "min", "mean", "max"],
+            rows,
+            title=f"{self.path or 'recording'}: {self.data.shape[0]} samples, {rate}",
+        )
         return text + ("" if self.timing is None else "\n\n" + self.timing.summary())
 
     def unit_map(self) -> dict[str, str]:
         """Column name -> unit, for the columns whose unit is known."""
         return {c: u for c, u in zip(self.columns, self.units or ()) if u}
 
-    def to_si(self, unit: str | None = None) -> "Recording":
+    def to_si(self, unit: str | None = None) -> Recording:
         """Return the recording with every column of known unit converted to SI.
 
         Parameters
@@ -148,22 +157,32 @@ class Recording:
         InputError
             A unit that does not parse.
         """
-        given = [unit] * len(self.columns) if unit is not None else list(self.units or [None] * len(self.columns))
+        given = (
+            [unit] * len(self.columns)
+            if unit is not None
+            else list(self.units or [None] * len(self.columns))
+        )
         parsed = []
         for column, u in zip(self.columns, given):
             try:
                 parsed.append(None if u is None else parse_unit(u))
             except InputError as exc:
-                source = "the unit given" if unit is not None else f"{self.path or 'the recording'}'s header"
-                raise InputError(f"column {column!r}: {source} says {u!r}, which is not a unit stochmod "
-                                 f"knows ({exc}); give the data's unit explicitly (--unit)") from None
+                source = (
+                    "the unit given"
+                    if unit is not None
+                    else f"{self.path or 'the recording'}'s header"
+                )
+                raise InputError(
+                    f"column {column!r}: {source} says {u!r}, which is not a unit stochmod "
+                    f"knows ({exc}); give the data's unit explicitly (--unit)"
+                ) from None
         if all(p is None for p in parsed):
             return self
         scale = np.array([1.0 if p is None else p.scale for p in parsed])
         units = tuple(None if p is None else p.si for p in parsed)
         return attrs.evolve(self, data=self.data * scale, units=units)
 
-    def segments(self) -> list["Recording"]:
+    def segments(self) -> list[Recording]:
         """The gap-free pieces of the recording, in time order (itself when it has no gaps).
 
         Each piece keeps the columns, units, rate and the time stamps of its samples; its
@@ -210,7 +229,8 @@ class Reader(abc.ABC):
 
     @abc.abstractmethod
     def read(self, path: Path, **options: Any) -> Recording:
-        """Read `path` and return a :class:`Recording` (time stamps in s where the format has them)."""
+        """Read `path` and return a :class:`Recording` (time stamps in s where the format has
+        them)."""
 
 
 def import_optional(module: str, *, extra: str, what: str) -> ModuleType:
@@ -246,26 +266,34 @@ def _choose(path: Path, reader: str | None) -> Any:
         try:
             return table[reader]
         except KeyError:
-            raise InputError(f"unknown reader {reader!r}; registered readers: {format_names()}") from None
+            raise InputError(
+                f"unknown reader {reader!r}; registered readers: {format_names()}"
+            ) from None
     for r in table.values():
         if r.sniff(path):
             return r
     if path.is_dir():
-        raise InputError(f"no such file: {path} is a folder that no reader recognises "
-                         f"(registered readers: {format_names()})")
+        raise InputError(
+            f"no such file: {path} is a folder that no reader recognises "
+            f"(registered readers: {format_names()})"
+        )
     suffix = path.suffix.lower()
     for r in table.values():
         if suffix in r.suffixes:
             return r
-    raise InputError(f"unknown file format {suffix!r} for {path}; registered readers: {format_names()}")
+    raise InputError(
+        f"unknown file format {suffix!r} for {path}; registered readers: {format_names()}"
+    )
 
 
 def _call(r: Any, path: Path, options: dict[str, Any]) -> Recording:
     unknown = sorted(set(options) - set(r.options))
     if unknown:
         takes = ", ".join(r.options) or "no options"
-        raise InputError(f"the {r.name} reader does not take option(s) {', '.join(map(repr, unknown))} "
-                         f"for {path}; it takes: {takes}")
+        raise InputError(
+            f"the {r.name} reader does not take option(s) {', '.join(map(repr, unknown))} "
+            f"for {path}; it takes: {takes}"
+        )
     try:
         rec = r.read(path, **options)
     except StochmodError:
@@ -277,9 +305,15 @@ def _call(r: Any, path: Path, options: dict[str, Any]) -> Recording:
     return rec
 
 
-def read_recording(path: str | Path, *, columns: list[str | int] | None = None,
-                   reader: str | None = None, split_gaps: bool = False,
-                   gap_factor: float = DEFAULT_GAP_FACTOR, **options: Any) -> Recording:
+def read_recording(
+    path: str | Path,
+    *,
+    columns: list[str | int] | None = None,
+    reader: str | None = None,
+    split_gaps: bool = False,
+    gap_factor: float = DEFAULT_GAP_FACTOR,
+    **options: Any,
+) -> Recording:
     """Read a recording with the reader registered for its format.
 
     Parameters

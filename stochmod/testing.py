@@ -890,17 +890,20 @@ def check_reader(reader: Any, path: Any, *, expected: Any = None, **options: Any
     assert not missing, f"reader {name!r}: read() does not accept its declared option(s) {missing}"
     for probe in (path, path.parent / f"{path.name}.not-a-log-{name}"):
         verdict = reader.sniff(probe)
-        assert isinstance(verdict, bool), f"reader {name!r}: sniff({probe}) returned {verdict!r}, not a bool"
+        assert isinstance(verdict, bool), (
+            f"reader {name!r}: sniff({probe}) returned {verdict!r}, not a bool")
     assert suffixes or reader.sniff(path), (
         f"reader {name!r} declares no suffix and its sniff does not recognise {path}")
 
     rec = reader.read(path, **options)
-    assert isinstance(rec, Recording), f"reader {name!r} returned {type(rec).__name__}, not a Recording"
+    assert isinstance(rec, Recording), (
+        f"reader {name!r} returned {type(rec).__name__}, not a Recording")
     data = np.asarray(rec.data)
     assert data.ndim == 2 and data.shape[0] >= 2 and data.shape[1] == len(rec.columns), (
         f"reader {name!r}: data of shape {data.shape} for columns {rec.columns}")
     assert np.all(np.isfinite(data.astype(np.float64))), f"reader {name!r}: non-finite samples"
-    assert len(set(rec.columns)) == len(rec.columns), f"reader {name!r}: repeated column names {rec.columns}"
+    assert len(set(rec.columns)) == len(rec.columns), (
+        f"reader {name!r}: repeated column names {rec.columns}")
     for unit in rec.units or ():
         if unit is not None:
             parse_unit(unit)  # InputError (a failure) when a unit does not parse
@@ -913,7 +916,8 @@ def check_reader(reader: Any, path: Any, *, expected: Any = None, **options: Any
 
     if readers().get(name) is reader:
         via = read_recording(path, split_gaps=True, **options)
-        np.testing.assert_array_equal(via.data, data, err_msg=f"read_recording({path}) differs from {name!r}")
+        np.testing.assert_array_equal(via.data, data,
+                                      err_msg=f"read_recording({path}) differs from {name!r}")
         try:
             read_recording(path, reader=name, split_gaps=True, not_an_option_of_any_reader=1)
         except InputError as exc:

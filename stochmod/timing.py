@@ -55,8 +55,10 @@ class Gap:
 
     def describe(self) -> str:
         """One line: where the gap is and how long it is."""
-        return (f"after sample {self.index} (t = {format_number(self.time)} s): "
-                f"{format_number(self.duration)} s, {self.missing} sample(s) missing")
+        return (
+            f"after sample {self.index} (t = {format_number(self.time)} s): "
+            f"{format_number(self.duration)} s, {self.missing} sample(s) missing"
+        )
 
 
 @attrs.frozen
@@ -127,23 +129,49 @@ class TimingReport:
     def summary(self) -> str:
         """Rate, duration, dropped samples, jitter and a table of the gaps."""
         head = format_table(
-            ["samples", "duration s", "rate Hz", "period s", "gaps", "dropped",
-             "jitter rms s", "jitter max s", "at sample"],
-            [[self.n, self.duration, self.rate, self.period, len(self.gaps), self.dropped,
-              self.jitter_rms, self.jitter_max, self.jitter_max_index]],
+            [
+                "samples",
+                "duration s",
+                "rate Hz",
+                "period s",
+                "gaps",
+                "dropped",
+                "jitter rms s",
+                "jitter max s",
+                "at sample",
+            ],
+            [
+                [
+                    self.n,
+                    self.duration,
+                    self.rate,
+                    self.period,
+                    len(self.gaps),
+                    self.dropped,
+                    self.jitter_rms,
+                    self.jitter_max,
+                    self.jitter_max_index,
+                ]
+            ],
             title="time stamps",
         )
         if not self.gaps:
             return head + "\nno gaps"
         rows = [[g.index, g.time, g.duration, g.missing] for g in self.gaps]
-        return head + "\n\n" + format_table(
-            ["after sample", "t s", "interval s", "missing"], rows,
-            title=f"gaps (intervals longer than {format_number(self.gap_factor)} periods)",
+        return (
+            head
+            + "\n\n"
+            + format_table(
+                ["after sample", "t s", "interval s", "missing"],
+                rows,
+                title=f"gaps (intervals longer than {format_number(self.gap_factor)} periods)",
+            )
         )
 
 
-def analyse_timing(time: ArrayLike, *, gap_factor: float = DEFAULT_GAP_FACTOR,
-                   name: str = "time stamps") -> TimingReport:
+def analyse_timing(
+    time: ArrayLike, *, gap_factor: float = DEFAULT_GAP_FACTOR, name: str = "time stamps"
+) -> TimingReport:
     """Estimate the sampling rate and find gaps and jitter in a series of time stamps.
 
     Parameters
@@ -167,9 +195,13 @@ def analyse_timing(time: ArrayLike, *, gap_factor: float = DEFAULT_GAP_FACTOR,
     """
     t = np.asarray(time, dtype=np.float64)
     if t.ndim != 1 or t.size < 2:
-        raise InputError(f"{name}: need a 1-D series of at least 2 time stamps, got shape {t.shape}")
+        raise InputError(
+            f"{name}: need a 1-D series of at least 2 time stamps, got shape {t.shape}"
+        )
     if not np.all(np.isfinite(t)):
-        raise InputError(f"{name}: non-finite time stamp at sample {int(np.flatnonzero(~np.isfinite(t))[0])}")
+        raise InputError(
+            f"{name}: non-finite time stamp at sample {int(np.flatnonzero(~np.isfinite(t))[0])}"
+        )
     if not gap_factor > 1.0:
         raise InputError(f"gap_factor must be greater than 1, got {gap_factor!r}")
     dt = np.diff(t)
@@ -187,14 +219,23 @@ def analyse_timing(time: ArrayLike, *, gap_factor: float = DEFAULT_GAP_FACTOR,
     kc = k - k.mean()
     period = float(np.dot(kc, t - t.mean()) / np.dot(kc, kc))
     gaps = tuple(
-        Gap(index=int(i), time=float(t[i]), duration=float(dt[i]),
-            missing=max(int(steps[i]) - 1, 1))
+        Gap(
+            index=int(i), time=float(t[i]), duration=float(dt[i]), missing=max(int(steps[i]) - 1, 1)
+        )
         for i in np.flatnonzero(is_gap)
     )
     dev = np.where(is_gap, 0.0, dt - period)
     regular = ~is_gap
     jitter_rms = float(np.sqrt(np.mean(dev[regular] ** 2))) if regular.any() else 0.0
     worst = int(np.argmax(np.abs(dev)))
-    return TimingReport(n=int(t.size), start=float(t[0]), stop=float(t[-1]), period=period,
-                        gaps=gaps, jitter_rms=jitter_rms, jitter_max=float(abs(dev[worst])),
-                        jitter_max_index=worst, gap_factor=float(gap_factor))
+    return TimingReport(
+        n=int(t.size),
+        start=float(t[0]),
+        stop=float(t[-1]),
+        period=period,
+        gaps=gaps,
+        jitter_rms=jitter_rms,
+        jitter_max=float(abs(dev[worst])),
+        jitter_max_index=worst,
+        gap_factor=float(gap_factor),
+    )

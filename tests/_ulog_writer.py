@@ -16,15 +16,31 @@ import numpy as np
 __all__ = ["Topic", "write_ulog"]
 
 _MAGIC = b"ULog\x01\x12\x35"
-_CODES = {"uint64_t": "Q", "int64_t": "q", "uint32_t": "I", "int32_t": "i", "uint16_t": "H",
-          "int16_t": "h", "uint8_t": "B", "int8_t": "b", "float": "f", "double": "d", "bool": "?"}
+_CODES = {
+    "uint64_t": "Q",
+    "int64_t": "q",
+    "uint32_t": "I",
+    "int32_t": "i",
+    "uint16_t": "H",
+    "int16_t": "h",
+    "uint8_t": "B",
+    "int8_t": "b",
+    "float": "f",
+    "double": "d",
+    "bool": "?",
+}
 
 
 class Topic:
     """A logged topic: name, fields ``[(type, name, size)]`` and rows of values per field."""
 
-    def __init__(self, name: str, fields: Sequence[tuple[str, str, int]],
-                 values: Mapping[str, np.ndarray], multi_id: int = 0) -> None:
+    def __init__(
+        self,
+        name: str,
+        fields: Sequence[tuple[str, str, int]],
+        values: Mapping[str, np.ndarray],
+        multi_id: int = 0,
+    ) -> None:
         self.name, self.fields, self.values, self.multi_id = name, list(fields), values, multi_id
 
     def format(self) -> bytes:
@@ -39,7 +55,9 @@ class Topic:
             flat: list[object] = []
             for t, f, n in self.fields:
                 v = self.values[f][r]
-                flat.extend(np.atleast_1d(v).tolist() if n > 1 else [v.item() if hasattr(v, "item") else v])
+                flat.extend(
+                    np.atleast_1d(v).tolist() if n > 1 else [v.item() if hasattr(v, "item") else v]
+                )
             out.append(struct.pack(code, *flat))
         return out
 

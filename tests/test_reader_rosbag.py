@@ -17,14 +17,16 @@ from stochmod.registry import readers
 from stochmod.testing import check_reader
 
 pytest.importorskip("rosbags")
-from stochmod_rosbag.write import write_imu_bag  # noqa: E402
+from stochmod_rosbag.write import write_imu_bag
 
 RATE = 200.0
 PERIOD_NS = 5_000_000
 EPOCH_NS = 1_733_100_000_123_456_789  # a Unix time: seconds lose ~0.2 us in float64
 
 
-def _imu(n: int, seed: int, drop: list[int] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _imu(
+    n: int, seed: int, drop: list[int] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     k = np.setdiff1d(np.arange(n), drop or [])
     rng = np.random.default_rng(seed)
     gyro = rng.normal(0, 0.01, (k.size, 3))
@@ -32,11 +34,17 @@ def _imu(n: int, seed: int, drop: list[int] | None = None) -> tuple[np.ndarray, 
     return EPOCH_NS + PERIOD_NS * k, gyro, accel
 
 
-@pytest.mark.parametrize(("ros", "storage", "name"), [(2, "sqlite3", "bag2"), (2, "mcap", "bag2m"),
-                                                      (1, "sqlite3", "bag1.bag")])
-def test_round_trip_samples_rate_and_stamps(tmp_path: Path, ros: int, storage: str, name: str) -> None:
+@pytest.mark.parametrize(
+    ("ros", "storage", "name"),
+    [(2, "sqlite3", "bag2"), (2, "mcap", "bag2m"), (1, "sqlite3", "bag1.bag")],
+)
+def test_round_trip_samples_rate_and_stamps(
+    tmp_path: Path, ros: int, storage: str, name: str
+) -> None:
     stamps, gyro, accel = _imu(400, seed=ros)
-    path = write_imu_bag(tmp_path / name, stamps, gyro, accel, ros=ros, storage=storage, topic="/imu0")
+    path = write_imu_bag(
+        tmp_path / name, stamps, gyro, accel, ros=ros, storage=storage, topic="/imu0"
+    )
     rec = read_recording(path, topic="/imu0")
     truth = np.hstack([gyro, accel])
     np.testing.assert_array_equal(rec.data, truth)
@@ -71,8 +79,11 @@ def test_bag_receive_stamps(tmp_path: Path) -> None:
 def test_gaps_in_header_stamps(tmp_path: Path) -> None:
     stamps, gyro, accel = _imu(300, seed=5, drop=[40, 41, 200])
     path = write_imu_bag(tmp_path / "gaps", stamps, gyro, accel)
-    with pytest.raises(InputError, match=r"2 gap\(s\).*3 sample\(s\) missing at 200 Hz.*after sample 39 "
-                                         r"\(t = 0.195 s\).*after sample 197 \(t = 0.995 s\)"):
+    with pytest.raises(
+        InputError,
+        match=r"2 gap\(s\).*3 sample\(s\) missing at 200 Hz.*after sample 39 "
+        r"\(t = 0.195 s\).*after sample 197 \(t = 0.995 s\)",
+    ):
         read_recording(path)
     rec = read_recording(path, split_gaps=True)
     assert [(g.index, g.missing) for g in rec.timing.gaps] == [(39, 2), (197, 1)]
@@ -90,9 +101,13 @@ def test_topic_errors(tmp_path: Path) -> None:
     with Writer(path, version=Writer.VERSION_LATEST) as writer:
         conn = writer.add_connection("/chatter", string.__msgtype__, typestore=store)
         writer.write(conn, 1, store.serialize_cdr(string(data="hi"), string.__msgtype__))
-    with pytest.raises(InputError, match=r"holds 0 sensor_msgs/msg/Imu topics \(none\): choose one"):
+    with pytest.raises(
+        InputError, match=r"holds 0 sensor_msgs/msg/Imu topics \(none\): choose one"
+    ):
         read_recording(path)
-    with pytest.raises(InputError, match="topic '/chatter' carries std_msgs/msg/String, not sensor_msgs/msg/Imu"):
+    with pytest.raises(
+        InputError, match="topic '/chatter' carries std_msgs/msg/String, not sensor_msgs/msg/Imu"
+    ):
         read_recording(path, topic="/chatter")
     with pytest.raises(InputError, match="has no topic '/imu'"):
         read_recording(path, topic="/imu")
@@ -110,10 +125,30 @@ def test_cli_reads_a_bag_by_topic(tmp_path: Path, capsys: pytest.CaptureFixture[
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["freq"] == pytest.approx(RATE, rel=1e-12)
-    np.testing.assert_allclose(out["columns"]["gyro_y"]["wv"], wvar(gyro[:, 1], RATE).wv, rtol=1e-12)
+    np.testing.assert_allclose(
+        out["columns"]["gyro_y"]["wv"], wvar(gyro[:, 1], RATE).wv, rtol=1e-12
+    )
     assert "4096 samples at 200 Hz from the time stamps, 0 gap(s)" in captured.err
-    assert main(["calibrate", str(path), "--topic", "/imu/data", "--column", "accel_z", "--no-plots",
-                 "--candidates", "WN", "RW+WN", "--out", str(tmp_path / "out"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                str(path),
+                "--topic",
+                "/imu/data",
+                "--column",
+                "accel_z",
+                "--no-plots",
+                "--candidates",
+                "WN",
+                "RW+WN",
+                "--out",
+                str(tmp_path / "out"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     assert report["freq"] == pytest.approx(RATE, rel=1e-12) and report["n"] == 4096
     assert list(report["columns"]) == ["accel_z"]
@@ -124,7 +159,6 @@ def test_vectorised_decoding_equals_rosbags_deserialiser(tmp_path: Path, ros: in
     """Every frame_id length 0..9 (all CDR alignments), against rosbags message by message."""
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
-
     from stochmod_rosbag._imu_layout import decode
 
     for length in range(10):
@@ -135,11 +169,23 @@ def test_vectorised_decoding_equals_rosbags_deserialiser(tmp_path: Path, ros: in
             messages = list(bag.messages())
             msgs = [bag.deserialize(raw, c.msgtype) for c, _, raw in messages]
             data, ns = decode([raw for _, _, raw in messages], ros2=(ros == 2))
-        want = np.array([[m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z,
-                          m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z]
-                         for m in msgs])
+        want = np.array(
+            [
+                [
+                    m.angular_velocity.x,
+                    m.angular_velocity.y,
+                    m.angular_velocity.z,
+                    m.linear_acceleration.x,
+                    m.linear_acceleration.y,
+                    m.linear_acceleration.z,
+                ]
+                for m in msgs
+            ]
+        )
         np.testing.assert_array_equal(data, want)
-        np.testing.assert_array_equal(ns, [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs])
+        np.testing.assert_array_equal(
+            ns, [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs]
+        )
         np.testing.assert_array_equal(ns, stamps)
 
 
@@ -155,14 +201,20 @@ def test_mixed_frame_ids_fall_back_to_rosbags(tmp_path: Path) -> None:
         conn = writer.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=store)
         for i, t in enumerate(stamps):
             sec, nsec = divmod(int(t), 10**9)
-            head = ty["std_msgs/msg/Header"](stamp=ty["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec),
-                                             frame_id="imu" if i % 2 else "imu_link")
+            head = ty["std_msgs/msg/Header"](
+                stamp=ty["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec),
+                frame_id="imu" if i % 2 else "imu_link",
+            )
             vec = ty["geometry_msgs/msg/Vector3"]
             msg = ty["sensor_msgs/msg/Imu"](
-                header=head, orientation=ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
-                orientation_covariance=np.zeros(9), angular_velocity=vec(*gyro[i]),
-                angular_velocity_covariance=np.zeros(9), linear_acceleration=vec(*accel[i]),
-                linear_acceleration_covariance=np.zeros(9))
+                header=head,
+                orientation=ty["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+                orientation_covariance=np.zeros(9),
+                angular_velocity=vec(*gyro[i]),
+                angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=vec(*accel[i]),
+                linear_acceleration_covariance=np.zeros(9),
+            )
             writer.write(conn, int(t), store.serialize_cdr(msg, "sensor_msgs/msg/Imu"))
     rec = read_recording(path)
     np.testing.assert_array_equal(rec.data, np.hstack([gyro, accel]))

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from _ulog_writer import Topic, write_ulog
+
 from stochmod.errors import InputError
 from stochmod.io import read_recording
 from stochmod.registry import readers
@@ -34,24 +34,50 @@ def _combined(stamps: np.ndarray, rng: np.random.Generator) -> tuple[Topic, np.n
     n = stamps.size
     gyro = rng.normal(0, 0.01, (n, 3)).astype(np.float32)
     accel = (rng.normal(0, 0.05, (n, 3)) + [0, 0, -9.81]).astype(np.float32)
-    fields = [("uint64_t", "timestamp", 1), ("float", "gyro_rad", 3), ("uint32_t", "gyro_integral_dt", 1),
-              ("int32_t", "accelerometer_timestamp_relative", 1), ("float", "accelerometer_m_s2", 3),
-              ("uint32_t", "accelerometer_integral_dt", 1), ("uint8_t", "accelerometer_clipping", 1)]
-    values = {"timestamp": stamps, "gyro_rad": gyro, "gyro_integral_dt": np.full(n, PERIOD_US, np.uint32),
-              "accelerometer_timestamp_relative": np.zeros(n, np.int32), "accelerometer_m_s2": accel,
-              "accelerometer_integral_dt": np.full(n, PERIOD_US, np.uint32),
-              "accelerometer_clipping": np.zeros(n, np.uint8)}
+    fields = [
+        ("uint64_t", "timestamp", 1),
+        ("float", "gyro_rad", 3),
+        ("uint32_t", "gyro_integral_dt", 1),
+        ("int32_t", "accelerometer_timestamp_relative", 1),
+        ("float", "accelerometer_m_s2", 3),
+        ("uint32_t", "accelerometer_integral_dt", 1),
+        ("uint8_t", "accelerometer_clipping", 1),
+    ]
+    values = {
+        "timestamp": stamps,
+        "gyro_rad": gyro,
+        "gyro_integral_dt": np.full(n, PERIOD_US, np.uint32),
+        "accelerometer_timestamp_relative": np.zeros(n, np.int32),
+        "accelerometer_m_s2": accel,
+        "accelerometer_integral_dt": np.full(n, PERIOD_US, np.uint32),
+        "accelerometer_clipping": np.zeros(n, np.uint8),
+    }
     return Topic("sensor_combined", fields, values), np.hstack([gyro, accel]).astype(np.float64)
 
 
-def _gyro(stamps: np.ndarray, rng: np.random.Generator, multi_id: int, delay_us: int = 300) -> tuple[Topic, np.ndarray]:
+def _gyro(
+    stamps: np.ndarray, rng: np.random.Generator, multi_id: int, delay_us: int = 300
+) -> tuple[Topic, np.ndarray]:
     n = stamps.size
     xyz = rng.normal(0, 0.02, (n, 3)).astype(np.float32)
-    fields = [("uint64_t", "timestamp", 1), ("uint64_t", "timestamp_sample", 1), ("uint32_t", "device_id", 1),
-              ("float", "x", 1), ("float", "y", 1), ("float", "z", 1), ("float", "temperature", 1)]
-    values = {"timestamp": stamps + delay_us, "timestamp_sample": stamps,
-              "device_id": np.full(n, 2490378 + multi_id, np.uint32), "x": xyz[:, 0], "y": xyz[:, 1],
-              "z": xyz[:, 2], "temperature": np.full(n, 41.5, np.float32)}
+    fields = [
+        ("uint64_t", "timestamp", 1),
+        ("uint64_t", "timestamp_sample", 1),
+        ("uint32_t", "device_id", 1),
+        ("float", "x", 1),
+        ("float", "y", 1),
+        ("float", "z", 1),
+        ("float", "temperature", 1),
+    ]
+    values = {
+        "timestamp": stamps + delay_us,
+        "timestamp_sample": stamps,
+        "device_id": np.full(n, 2490378 + multi_id, np.uint32),
+        "x": xyz[:, 0],
+        "y": xyz[:, 1],
+        "z": xyz[:, 2],
+        "temperature": np.full(n, 41.5, np.float32),
+    }
     return Topic("sensor_gyro", fields, values, multi_id=multi_id), xyz.astype(np.float64)
 
 
@@ -67,7 +93,9 @@ def test_sensor_combined_round_trip(tmp_path: Path) -> None:
     np.testing.assert_array_equal(rec.time, stamps * 1e-6)
     assert rec.freq == pytest.approx(RATE, rel=1e-12)
     assert not rec.timing.has_gaps and rec.timing.jitter_max < 1e-12
-    assert check_reader(readers()["ulog"], path, expected=truth)["rate"] == pytest.approx(RATE, rel=1e-12)
+    assert check_reader(readers()["ulog"], path, expected=truth)["rate"] == pytest.approx(
+        RATE, rel=1e-12
+    )
 
 
 def test_topic_and_instance_options(tmp_path: Path) -> None:
@@ -86,8 +114,11 @@ def test_topic_and_instance_options(tmp_path: Path) -> None:
     assert read_recording(path).data.shape[1] == 6  # default: sensor_combined, the first present
     with pytest.raises(InputError, match=r"topic 'sensor_gyro' has no instance 2; instances: 0, 1"):
         read_recording(path, topic="sensor_gyro", instance=2)
-    with pytest.raises(InputError, match=r"has no topic 'sensor_accel'; IMU topics in the log: "
-                                         r"sensor_combined, sensor_gyro"):
+    with pytest.raises(
+        InputError,
+        match=r"has no topic 'sensor_accel'; IMU topics in the log: "
+        r"sensor_combined, sensor_gyro",
+    ):
         read_recording(path, topic="sensor_accel")
     with pytest.raises(InputError, match="'vehicle_attitude' is not an IMU topic"):
         read_recording(path, topic="vehicle_attitude")
@@ -100,15 +131,26 @@ def test_vehicle_imu_increments_become_rates(tmp_path: Path) -> None:
     dt_us = rng.integers(3900, 4100, n).astype(np.uint16)  # the integration intervals vary
     rate = rng.normal(0, 0.05, (n, 3))
     acc = rng.normal(0, 0.2, (n, 3)) + [0, 0, -9.80665]
-    fields = [("uint64_t", "timestamp", 1), ("uint64_t", "timestamp_sample", 1),
-              ("uint32_t", "accel_device_id", 1), ("uint32_t", "gyro_device_id", 1),
-              ("float", "delta_angle", 3), ("float", "delta_velocity", 3),
-              ("uint16_t", "delta_angle_dt", 1), ("uint16_t", "delta_velocity_dt", 1)]
-    values = {"timestamp": stamps + 50, "timestamp_sample": stamps, "accel_device_id": np.ones(n, np.uint32),
-              "gyro_device_id": np.ones(n, np.uint32),
-              "delta_angle": (rate * dt_us[:, None] * 1e-6).astype(np.float32),
-              "delta_velocity": (acc * dt_us[:, None] * 1e-6).astype(np.float32),
-              "delta_angle_dt": dt_us, "delta_velocity_dt": dt_us}
+    fields = [
+        ("uint64_t", "timestamp", 1),
+        ("uint64_t", "timestamp_sample", 1),
+        ("uint32_t", "accel_device_id", 1),
+        ("uint32_t", "gyro_device_id", 1),
+        ("float", "delta_angle", 3),
+        ("float", "delta_velocity", 3),
+        ("uint16_t", "delta_angle_dt", 1),
+        ("uint16_t", "delta_velocity_dt", 1),
+    ]
+    values = {
+        "timestamp": stamps + 50,
+        "timestamp_sample": stamps,
+        "accel_device_id": np.ones(n, np.uint32),
+        "gyro_device_id": np.ones(n, np.uint32),
+        "delta_angle": (rate * dt_us[:, None] * 1e-6).astype(np.float32),
+        "delta_velocity": (acc * dt_us[:, None] * 1e-6).astype(np.float32),
+        "delta_angle_dt": dt_us,
+        "delta_velocity_dt": dt_us,
+    }
     path = write_ulog(tmp_path / "vimu.ulg", [Topic("vehicle_imu", fields, values)])
     rec = read_recording(path)
     # float32 increments: the rates come back to float32 precision
@@ -122,8 +164,11 @@ def test_dropped_samples_are_refused_where_they_are_or_split(tmp_path: Path) -> 
     topic, truth = _combined(stamps, rng)
     path = write_ulog(tmp_path / "gaps.ulg", [topic])
     t_gap = (START_US + 99 * PERIOD_US) * 1e-6
-    with pytest.raises(InputError, match=rf"2 gap\(s\).*4 sample\(s\) missing.*after sample 99 "
-                                         rf"\(t = {t_gap:g} s\)"):
+    with pytest.raises(
+        InputError,
+        match=rf"2 gap\(s\).*4 sample\(s\) missing.*after sample 99 "
+        rf"\(t = {t_gap:g} s\)",
+    ):
         read_recording(path)
     rec = read_recording(path, split_gaps=True)
     assert [(g.index, g.missing) for g in rec.timing.gaps] == [(99, 1), (248, 3)]
@@ -143,10 +188,15 @@ def test_not_a_ulog_file(tmp_path: Path) -> None:
 def test_log_without_imu_topics(tmp_path: Path) -> None:
     stamps = _stamps(20)
     fields = [("uint64_t", "timestamp", 1), ("float", "q", 4)]
-    attitude = Topic("vehicle_attitude", fields, {"timestamp": stamps,
-                                                  "q": np.tile(np.float32([1, 0, 0, 0]), (20, 1))})
+    attitude = Topic(
+        "vehicle_attitude",
+        fields,
+        {"timestamp": stamps, "q": np.tile(np.float32([1, 0, 0, 0]), (20, 1))},
+    )
     path = write_ulog(tmp_path / "att.ulg", [attitude])
-    with pytest.raises(InputError, match="holds none of the IMU topics sensor_combined, vehicle_imu"):
+    with pytest.raises(
+        InputError, match="holds none of the IMU topics sensor_combined, vehicle_imu"
+    ):
         read_recording(path)
     renamed = tmp_path / "att.log"  # found by its magic bytes whatever the suffix
     renamed.write_bytes(path.read_bytes())

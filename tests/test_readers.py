@@ -50,7 +50,9 @@ def test_unknown_suffix_reader_and_option_are_clear_errors(tmp_path: Path) -> No
         read_recording(tmp_path / "a.json")
     with pytest.raises(InputError, match=r"unknown reader 'hdf5'; registered readers: csv"):
         read_recording(path, reader="hdf5")
-    with pytest.raises(InputError, match=r"csv reader does not take option\(s\) 'topic'.*takes: time_column"):
+    with pytest.raises(
+        InputError, match=r"csv reader does not take option\(s\) 'topic'.*takes: time_column"
+    ):
         read_recording(path, topic="/imu")
     # None-valued options (CLI defaults) are not passed
     assert read_recording(path, topic=None).columns == ("x",)
@@ -97,7 +99,11 @@ def test_runtime_reader_is_dispatched_by_sniffing_and_checked(tmp_path: Path) ->
         rec = read_recording(path)
         np.testing.assert_array_equal(rec.data[:, 0], values)
         assert check_reader(readers()["sniffed"], path, expected=values) == {
-            "n": 9, "k": 1, "has_time": False, "rate": None}
+            "n": 9,
+            "k": 1,
+            "has_time": False,
+            "rate": None,
+        }
     finally:
         stochmod.unregister_plugin(plugin)
     assert "sniffed" not in reader_names()
@@ -115,8 +121,11 @@ def test_csv_header_units_and_time_column(tmp_path: Path) -> None:
     n = 6
     t_ms = 1000.0 + 5.0 * np.arange(n)  # 200 Hz in milliseconds
     table = RNG.normal(size=(n, 2))
-    path = _csv(tmp_path / "imu.csv", ["time [ms]", "gyro_x [deg/s]", "accel_z [g]"],
-                np.column_stack([t_ms, table]))
+    path = _csv(
+        tmp_path / "imu.csv",
+        ["time [ms]", "gyro_x [deg/s]", "accel_z [g]"],
+        np.column_stack([t_ms, table]),
+    )
     rec = read_recording(path)
     assert rec.columns == ("gyro_x", "accel_z") and rec.units == ("deg/s", "g")
     np.testing.assert_array_equal(rec.data, table)
@@ -139,7 +148,9 @@ def test_time_column_by_option_and_nanoseconds(tmp_path: Path) -> None:
     assert rec.columns == ("x",) and rec.freq == pytest.approx(400.0, rel=1e-9)
     with pytest.raises(InputError, match="no time column 'stamp_us'"):
         read_recording(path, time_column="stamp_us")
-    bad = _csv(tmp_path / "bad.csv", ["t [deg]", "x"], np.column_stack([np.arange(3.0), np.ones(3)]))
+    bad = _csv(
+        tmp_path / "bad.csv", ["t [deg]", "x"], np.column_stack([np.arange(3.0), np.ones(3)])
+    )
     with pytest.raises(InputError, match="unit 'deg' is not a unit of time"):
         read_recording(bad)
 
@@ -149,8 +160,11 @@ def test_gap_is_refused_where_it_is_or_split(tmp_path: Path) -> None:
     keep = np.setdiff1d(np.arange(n), [10, 11, 25])  # 2 samples missing after 9, 1 after 22
     table = RNG.normal(size=(keep.size, 2))
     path = _csv(tmp_path / "gaps.csv", ["t", "a", "b"], np.column_stack([keep * 0.01, table]))
-    with pytest.raises(InputError, match=r"2 gap\(s\).*3 sample\(s\) missing.*after sample 9 "
-                                         r"\(t = 0.09 s\).*after sample 22 \(t = 0.24 s\).*split_gaps=True"):
+    with pytest.raises(
+        InputError,
+        match=r"2 gap\(s\).*3 sample\(s\) missing.*after sample 9 "
+        r"\(t = 0.09 s\).*after sample 22 \(t = 0.24 s\).*split_gaps=True",
+    ):
         read_recording(path)
     rec = read_recording(path, split_gaps=True)
     assert rec.freq == pytest.approx(100.0, rel=1e-9) and rec.timing.dropped == 3
@@ -175,8 +189,14 @@ def _samples(tmp_path: Path) -> dict[str, tuple[Path, np.ndarray]]:
     table = RNG.normal(size=(12, 3))
     np.save(tmp_path / "s.npy", table)
     np.savez(tmp_path / "s.npz", a=table[:, 0], b=table[:, 1], c=table[:, 2])
-    csv = _csv(tmp_path / "s.csv", ["t", "a", "b", "c"], np.column_stack([np.arange(12) * 0.1, table]))
-    return {"npy": (tmp_path / "s.npy", table), "npz": (tmp_path / "s.npz", table), "csv": (csv, table)}
+    csv = _csv(
+        tmp_path / "s.csv", ["t", "a", "b", "c"], np.column_stack([np.arange(12) * 0.1, table])
+    )
+    return {
+        "npy": (tmp_path / "s.npy", table),
+        "npz": (tmp_path / "s.npz", table),
+        "csv": (csv, table),
+    }
 
 
 @pytest.mark.parametrize("name", ["csv", "npy", "npz"])
@@ -197,7 +217,9 @@ def test_conformance_kit_catches_a_wrong_reader(tmp_path: Path) -> None:
         def read(self, path: Path) -> Recording:
             return Recording(data=table, columns=("a", "b", "c"), time=-np.arange(12.0))
 
-    with pytest.raises(AssertionError, match=r"does not accept its declared option\(s\) \['scale'\]"):
+    with pytest.raises(
+        AssertionError, match=r"does not accept its declared option\(s\) \['scale'\]"
+    ):
         check_reader(Backwards(), path)
     Backwards.options = ()
     with pytest.raises(InputError, match="time stamps must increase"):
@@ -206,9 +228,12 @@ def test_conformance_kit_catches_a_wrong_reader(tmp_path: Path) -> None:
         check_reader(readers()["csv"], path, expected=table + 1.0)
 
 
-@pytest.mark.parametrize(("module", "suffix", "extra"), [("pyulog", ".ulg", "ulog"), ("rosbags", ".bag", "rosbag")])
-def test_missing_optional_dependency_names_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                     module: str, suffix: str, extra: str) -> None:
+@pytest.mark.parametrize(
+    ("module", "suffix", "extra"), [("pyulog", ".ulg", "ulog"), ("rosbags", ".bag", "rosbag")]
+)
+def test_missing_optional_dependency_names_the_extra(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, module: str, suffix: str, extra: str
+) -> None:
     monkeypatch.setitem(sys.modules, module, None)  # import now raises ImportError
     path = tmp_path / f"log{suffix}"
     path.write_bytes(b"\x00" * 16)
@@ -220,7 +245,9 @@ def test_missing_optional_dependency_names_the_extra(tmp_path: Path, monkeypatch
 
 
 # ---------------------------------------------------------------------- command line
-def test_cli_unit_converts_to_si_before_modelling(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_unit_converts_to_si_before_modelling(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     x = np.random.default_rng(3).normal(size=4096)
     path = _csv(tmp_path / "deg.csv", ["t", "gyro"], np.column_stack([np.arange(4096) / 100.0, x]))
     assert main(["wv", str(path), "--unit", "deg/s", "--json"]) == 0
@@ -231,7 +258,9 @@ def test_cli_unit_converts_to_si_before_modelling(tmp_path: Path, capsys: pytest
     np.testing.assert_allclose(got, want.wv, rtol=1e-9)
 
 
-def test_cli_header_units_are_used_without_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_header_units_are_used_without_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     x = np.random.default_rng(4).normal(size=2048)
     path = _csv(tmp_path / "mg.csv", ["accel [mg]"], x[:, None])
     assert main(["wv", str(path), "--freq", "50", "--json"]) == 0
@@ -239,7 +268,9 @@ def test_cli_header_units_are_used_without_option(tmp_path: Path, capsys: pytest
     np.testing.assert_allclose(got, wvar(x * 9.80665e-3, 50.0).wv, rtol=1e-9)
 
 
-def test_cli_gap_is_an_error_that_says_where(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_gap_is_an_error_that_says_where(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     keep = np.setdiff1d(np.arange(600), [300])
     x = np.random.default_rng(5).normal(size=keep.size)
     path = _csv(tmp_path / "gap.csv", ["time", "x"], np.column_stack([keep / 100.0, x]))
@@ -253,7 +284,9 @@ def test_cli_gap_is_an_error_that_says_where(tmp_path: Path, capsys: pytest.Capt
     np.testing.assert_allclose(got, wvar(x[:300], 100.0).wv, rtol=1e-9)
 
 
-def test_cli_reader_options_refused_for_the_bundled_example(capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_reader_options_refused_for_the_bundled_example(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
     assert main(["calibrate", "--topic", "/imu", "--unit", "deg/s"]) == 2
     assert "--topic, --unit apply to a FILE" in capsys.readouterr().err
 
@@ -261,9 +294,16 @@ def test_cli_reader_options_refused_for_the_bundled_example(capsys: pytest.Captu
 def test_cli_readers_lists_and_inspects(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["readers", "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)
-    assert listed["ulog"]["options"] == ["topic", "instance"] and ".bag" in listed["rosbag"]["suffixes"]
+    assert (
+        listed["ulog"]["options"] == ["topic", "instance"]
+        and ".bag" in listed["rosbag"]["suffixes"]
+    )
     keep = np.setdiff1d(np.arange(50), [20, 21])
-    path = _csv(tmp_path / "g.csv", ["t [ms]", "x [deg/s]"], np.column_stack([keep * 10.0, np.ones(keep.size)]))
+    path = _csv(
+        tmp_path / "g.csv",
+        ["t [ms]", "x [deg/s]"],
+        np.column_stack([keep * 10.0, np.ones(keep.size)]),
+    )
     assert main(["readers", str(path), "--json"]) == 0  # gaps are reported, not refused
     out = json.loads(capsys.readouterr().out)
     assert out["units"] == ["deg/s"] and out["freq"] == pytest.approx(100.0, rel=1e-9)

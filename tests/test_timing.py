@@ -23,8 +23,12 @@ def _gaps_from_kept(kept: np.ndarray) -> list[tuple[int, int]]:
 
 
 @settings(max_examples=40, deadline=None)
-@given(rate=st.floats(1.0, 2000.0), n=st.integers(8, 400), t0=st.floats(0.0, 1e5),
-       seed=st.integers(0, 2**32 - 1))
+@given(
+    rate=st.floats(1.0, 2000.0),
+    n=st.integers(8, 400),
+    t0=st.floats(0.0, 1e5),
+    seed=st.integers(0, 2**32 - 1),
+)
 def test_rate_and_gaps_exact_for_periodic_stamps(rate: float, n: int, t0: float, seed: int) -> None:
     rng = np.random.default_rng(seed)
     # drop up to n/8 samples, never the first or last, runs of any length
@@ -67,12 +71,15 @@ def test_summary_names_the_gaps() -> None:
     assert report.describe_gaps(limit=1).endswith("and 1 more")
 
 
-@pytest.mark.parametrize(("t", "match"), [
-    ([0.0, 0.01, 0.01, 0.03], r"sample 2 \(t = 0.01 s\) is not later than sample 1"),
-    ([0.0, 0.02, 0.01], r"sample 2 .* is not later"),
-    ([0.0], "at least 2"),
-    ([0.0, np.nan, 0.2], "non-finite time stamp at sample 1"),
-])
+@pytest.mark.parametrize(
+    ("t", "match"),
+    [
+        ([0.0, 0.01, 0.01, 0.03], r"sample 2 \(t = 0.01 s\) is not later than sample 1"),
+        ([0.0, 0.02, 0.01], r"sample 2 .* is not later"),
+        ([0.0], "at least 2"),
+        ([0.0, np.nan, 0.2], "non-finite time stamp at sample 1"),
+    ],
+)
 def test_bad_stamps_raise(t: list[float], match: str) -> None:
     with pytest.raises(InputError, match=match):
         analyse_timing(t)

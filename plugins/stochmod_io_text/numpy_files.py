@@ -26,8 +26,11 @@ class NpyReader(Reader):
         if arr.ndim not in (1, 2):
             raise InputError(f"{path} must be 1-D or 2-D (samples x axes), got shape {arr.shape}")
         width = 1 if arr.ndim == 1 else arr.shape[1]
-        return Recording(data=arr.reshape(arr.shape[0], width) if arr.size else arr.reshape(0, width),
-                         columns=tuple(str(i) for i in range(width)), path=str(path))
+        return Recording(
+            data=arr.reshape(arr.shape[0], width) if arr.size else arr.reshape(0, width),
+            columns=tuple(str(i) for i in range(width)),
+            path=str(path),
+        )
 
 
 def _columns(path: Path, arrays: dict[str, np.ndarray]) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -65,22 +68,36 @@ class NpzReader(Reader):
         with np.load(path, allow_pickle=False) as z:
             freq = float(z["freq"]) if "freq" in z.files and z["freq"].size == 1 else None
             units = z["units"] if "units" in z.files else None
-            arrays = {k: z[k] for k in z.files
-                      if z[k].ndim >= 1 and np.issubdtype(z[k].dtype, np.number) and k != "freq"}
+            arrays = {
+                k: z[k]
+                for k in z.files
+                if z[k].ndim >= 1 and np.issubdtype(z[k].dtype, np.number) and k != "freq"
+            }
         names = tuple(arrays)
         it = find_time_column(names, time_column, path)
         time = None
         if it is not None:
             time = arrays.pop(names[it])
             if time.ndim != 1:
-                raise InputError(f"{path}: the time array {names[it]!r} must be 1-D, got shape {time.shape}")
+                raise InputError(
+                    f"{path}: the time array {names[it]!r} must be 1-D, got shape {time.shape}"
+                )
         if not arrays:
-            raise InputError(f"{path} holds no numeric arrays" + (" besides the time" if time is not None else ""))
+            raise InputError(
+                f"{path} holds no numeric arrays"
+                + (" besides the time" if time is not None else "")
+            )
         data, columns = _columns(path, arrays)
         if time is not None and time.shape[0] != data.shape[0]:
             raise InputError(f"{path}: {time.shape[0]} time stamps for {data.shape[0]} samples")
         unit_list = None
-        if units is not None and units.ndim == 1 and units.dtype.kind == "U" and len(units) == len(columns):
+        if (
+            units is not None
+            and units.ndim == 1
+            and units.dtype.kind == "U"
+            and len(units) == len(columns)
+        ):
             unit_list = tuple(str(u) or None for u in units)
-        return Recording(data=data, columns=columns, freq=freq, path=str(path), time=time,
-                         units=unit_list)
+        return Recording(
+            data=data, columns=columns, freq=freq, path=str(path), time=time, units=unit_list
+        )

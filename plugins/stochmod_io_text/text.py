@@ -29,14 +29,18 @@ def _is_float(text: str) -> bool:
 
 def _rows(path: Path) -> list[list[str]]:
     """Non-empty, non-comment rows split on the sniffed delimiter (``, ; tab space``)."""
-    lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    lines = [
+        ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")
+    ]
     if not lines:
         raise InputError(f"{path} holds no data rows")
     try:  # sniffed on the second line: a header such as "gyro_x [deg/s]" holds spaces
         delimiter = csv.Sniffer().sniff(lines[min(1, len(lines) - 1)], delimiters=",;\t ").delimiter
     except csv.Error:
         delimiter = ","
-    rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter, skipinitialspace=True))
+    rows = list(
+        csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter, skipinitialspace=True)
+    )
     if delimiter != " ":
         return rows
     rows = [[c for c in row if c != ""] for row in rows]
@@ -95,6 +99,10 @@ class TextReader(Reader):
             raise InputError(f"{path}: the time column {names[it]!r} is the only column")
         keep = [i for i in range(width) if i != it]
         scale = time_scale(units[it] if units else None, path)
-        return Recording(data=data[:, keep], columns=tuple(names[i] for i in keep), path=str(path),
-                         time=data[:, it] * scale,
-                         units=None if units is None else tuple(units[i] for i in keep))
+        return Recording(
+            data=data[:, keep],
+            columns=tuple(names[i] for i in keep),
+            path=str(path),
+            time=data[:, it] * scale,
+            units=None if units is None else tuple(units[i] for i in keep),
+        )

@@ -33,7 +33,11 @@ _UNITS = ("rad/s",) * 3 + ("m/s^2",) * 3
 
 def _bag_root(path: Path) -> Path:
     """The folder of a ROS 2 bag given its folder or one of its storage files; else `path`."""
-    if path.is_file() and path.suffix.lower() in {".db3", ".mcap"} and (path.parent / "metadata.yaml").is_file():
+    if (
+        path.is_file()
+        and path.suffix.lower() in {".db3", ".mcap"}
+        and (path.parent / "metadata.yaml").is_file()
+    ):
         return path.parent
     return path
 
@@ -42,14 +46,20 @@ def _choose_topic(path: Path, connections: list[Any], topic: str | None) -> str:
     imu_topics = sorted({c.topic for c in connections if c.msgtype == IMU_TYPE})
     if topic is None:
         if len(imu_topics) != 1:
-            raise InputError(f"{path} holds {len(imu_topics)} {IMU_TYPE} topics "
-                             f"({', '.join(imu_topics) or 'none'}): choose one with topic= (--topic)")
+            raise InputError(
+                f"{path} holds {len(imu_topics)} {IMU_TYPE} topics "
+                f"({', '.join(imu_topics) or 'none'}): choose one with topic= (--topic)"
+            )
         return imu_topics[0]
     types = {c.msgtype for c in connections if c.topic == topic}
     if not types:
-        raise InputError(f"{path} has no topic {topic!r}; {IMU_TYPE} topics: {', '.join(imu_topics) or 'none'}")
+        raise InputError(
+            f"{path} has no topic {topic!r}; {IMU_TYPE} topics: {', '.join(imu_topics) or 'none'}"
+        )
     if IMU_TYPE not in types:
-        raise InputError(f"{path}: topic {topic!r} carries {', '.join(sorted(types))}, not {IMU_TYPE}")
+        raise InputError(
+            f"{path}: topic {topic!r} carries {', '.join(sorted(types))}, not {IMU_TYPE}"
+        )
     return topic
 
 
@@ -88,7 +98,9 @@ class RosbagReader(Reader):
             with AnyReader([root], default_typestore=get_typestore(Stores.LATEST)) as bag:
                 name = _choose_topic(path, bag.connections, topic)
                 chosen = [c for c in bag.connections if c.topic == name and c.msgtype == IMU_TYPE]
-                messages = [(conn, t_bag, raw) for conn, t_bag, raw in bag.messages(connections=chosen)]
+                messages = [
+                    (conn, t_bag, raw) for conn, t_bag, raw in bag.messages(connections=chosen)
+                ]
                 if not messages:
                     raise InputError(f"{path}: topic {name!r} holds no messages")
                 decoded = decode([raw for _, _, raw in messages], ros2=bag.is2)
@@ -97,10 +109,20 @@ class RosbagReader(Reader):
         except AnyReaderError as exc:
             raise InputError(f"cannot read {path} as a ROS bag: {exc}") from None
         data, header_ns = decoded
-        ns = header_ns if stamp == "header" else np.array([t for _, t, _ in messages], dtype=np.int64)
+        ns = (
+            header_ns
+            if stamp == "header"
+            else np.array([t for _, t, _ in messages], dtype=np.int64)
+        )
         # seconds after the first stamp: exact in float64, where Unix seconds would lose ~0.2 us
-        return Recording(data=data, columns=_COLUMNS, path=str(path),
-                         time=(ns - ns[0]) * 1e-9, time_origin=ns[0] * 1e-9, units=_UNITS)
+        return Recording(
+            data=data,
+            columns=_COLUMNS,
+            path=str(path),
+            time=(ns - ns[0]) * 1e-9,
+            time_origin=ns[0] * 1e-9,
+            units=_UNITS,
+        )
 
 
 @hookimpl

@@ -32,7 +32,7 @@ __all__ = ["decode"]
 
 def _column(buf: np.ndarray, offset: int, dtype: str) -> np.ndarray:
     size = np.dtype(dtype).itemsize
-    return np.ascontiguousarray(buf[:, offset:offset + size]).view(dtype)[:, 0]
+    return np.ascontiguousarray(buf[:, offset : offset + size]).view(dtype)[:, 0]
 
 
 def decode(raws: Sequence[bytes | memoryview], ros2: bool) -> tuple[np.ndarray, np.ndarray] | None:

@@ -53,11 +53,19 @@ def _per_second(d: dict[str, np.ndarray], name: str, dt_name: str) -> list[np.nd
 
 #: Supported topics: name -> (columns, units, function of the field dict giving the columns).
 IMU_TOPICS: dict[str, tuple[tuple[str, ...], tuple[str, ...], Any]] = {
-    "sensor_combined": (_GYRO + _ACCEL, (_RAD_S,) * 3 + (_M_S2,) * 3,
-                        lambda d: _vector(d, "gyro_rad") + _vector(d, "accelerometer_m_s2")),
-    "vehicle_imu": (_GYRO + _ACCEL, (_RAD_S,) * 3 + (_M_S2,) * 3,
-                    lambda d: _per_second(d, "delta_angle", "delta_angle_dt")
-                    + _per_second(d, "delta_velocity", "delta_velocity_dt")),
+    "sensor_combined": (
+        _GYRO + _ACCEL,
+        (_RAD_S,) * 3 + (_M_S2,) * 3,
+        lambda d: _vector(d, "gyro_rad") + _vector(d, "accelerometer_m_s2"),
+    ),
+    "vehicle_imu": (
+        _GYRO + _ACCEL,
+        (_RAD_S,) * 3 + (_M_S2,) * 3,
+        lambda d: (
+            _per_second(d, "delta_angle", "delta_angle_dt")
+            + _per_second(d, "delta_velocity", "delta_velocity_dt")
+        ),
+    ),
     "sensor_gyro": (_GYRO, (_RAD_S,) * 3, _xyz),
     "sensor_accel": (_ACCEL, (_M_S2,) * 3, _xyz),
 }
@@ -82,11 +90,15 @@ class ULogReader(Reader):
         pyulog = import_optional("pyulog", extra="ulog", what="reading PX4 ULog files")
         wanted = list(IMU_TOPICS) if topic is None else [topic]
         if topic is not None and topic not in IMU_TOPICS:
-            raise InputError(f"{path}: topic {topic!r} is not an IMU topic the ulog reader knows; "
-                             f"choose one of {', '.join(IMU_TOPICS)}")
+            raise InputError(
+                f"{path}: topic {topic!r} is not an IMU topic the ulog reader knows; "
+                f"choose one of {', '.join(IMU_TOPICS)}"
+            )
         try:
             log = pyulog.ULog(str(path), message_name_filter_list=wanted)
-        except getattr(pyulog, "ULogException", ValueError) as exc:  # not a ValueError in pyulog 1.x
+        except getattr(
+            pyulog, "ULogException", ValueError
+        ) as exc:  # not a ValueError in pyulog 1.x
             raise InputError(f"cannot read {path} as ULog: {exc}") from None
         found = {(d.name, d.multi_id): d for d in log.data_list}
         present = sorted({name for name, _ in found})
@@ -97,11 +109,15 @@ class ULogReader(Reader):
         instances = sorted(i for name, i in found if name == topic)
         if not instances:
             logged = pyulog.ULog(str(path), message_name_filter_list=list(IMU_TOPICS)).data_list
-            raise InputError(f"{path} has no topic {topic!r}; IMU topics in the log: "
-                             f"{', '.join(sorted({d.name for d in logged})) or 'none'}")
+            raise InputError(
+                f"{path} has no topic {topic!r}; IMU topics in the log: "
+                f"{', '.join(sorted({d.name for d in logged})) or 'none'}"
+            )
         if int(instance) not in instances:
-            raise InputError(f"{path}: topic {topic!r} has no instance {instance}; "
-                             f"instances: {', '.join(map(str, instances))}")
+            raise InputError(
+                f"{path}: topic {topic!r} has no instance {instance}; "
+                f"instances: {', '.join(map(str, instances))}"
+            )
         fields = found[(topic, int(instance))].data
         columns, units, extract = IMU_TOPICS[topic]
         try:

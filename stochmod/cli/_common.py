@@ -32,7 +32,8 @@ def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool 
     log.add_argument("--reader", default=None, metavar="NAME",
                      help="reader to use (default: by the file's content, then its suffix)")
     log.add_argument("--topic", default=None, metavar="NAME",
-                     help="topic of a ROS bag (/imu) or a PX4 ULog (sensor_combined, vehicle_imu, ...)")
+                     help="topic of a ROS bag (/imu) or a PX4 ULog (sensor_combined, "
+                          "vehicle_imu, ...)")
     log.add_argument("--instance", type=int, default=None, metavar="K",
                      help="instance of a multi-instance ULog topic (default 0)")
     log.add_argument("--unit", default=None, metavar="UNIT",
@@ -50,7 +51,8 @@ def _longest_segment(rec: Recording) -> Recording:
         return rec
     longest = max(pieces, key=lambda r: r.data.shape[0])
     print(f"{rec.path}: {len(pieces)} gap-free segments; using the longest "
-          f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, from t = {longest.time[0]:.6g} s)",
+          f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, "
+          f"from t = {longest.time[0]:.6g} s)",
           file=sys.stderr)
     return longest
 
@@ -64,7 +66,8 @@ def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recordi
     """
     rec = read_recording(args.file, columns=args.column, reader=getattr(args, "reader", None),
                          split_gaps=getattr(args, "split_gaps", False),
-                         topic=getattr(args, "topic", None), instance=getattr(args, "instance", None))
+                         topic=getattr(args, "topic", None),
+                         instance=getattr(args, "instance", None))
     if rec.timing is not None:
         t = rec.timing
         print(f"{args.file}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "

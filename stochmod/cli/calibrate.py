@@ -62,8 +62,8 @@ def _input(args: argparse.Namespace) -> tuple[Recording, float]:
         given = [f"--{o.replace('_', '-')}" for o in ("reader", "topic", "instance", "unit")
                  if getattr(args, o) is not None] + (["--split-gaps"] if args.split_gaps else [])
         if given:
-            raise InputError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to a FILE, "
-                             "not to the bundled example")
+            verb = "applies" if len(given) == 1 else "apply"
+            raise InputError(f"{', '.join(given)} {verb} to a FILE, not to the bundled example")
         rec = xsens_mtig(n=args.n).select(args.column)
         if args.freq is not None and args.freq != rec.freq:
             raise InputError(f"--freq {args.freq:g} does not apply to the bundled example ({rec.freq:g} Hz)")

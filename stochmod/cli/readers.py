@@ -34,24 +34,64 @@ def run(args: argparse.Namespace) -> int:
     if args.file is None:
         table = readers()
         if args.json:
-            print_json({n: {"suffixes": list(r.suffixes), "options": list(r.options),
-                            "description": getattr(r, "description", "")} for n, r in table.items()})
+            print_json(
+                {
+                    n: {
+                        "suffixes": list(r.suffixes),
+                        "options": list(r.options),
+                        "description": getattr(r, "description", ""),
+                    }
+                    for n, r in table.items()
+                }
+            )
             return 0
-        print(format_table(["reader", "suffixes", "options", "description"],
-                           [[n, " ".join(s or "(none)" for s in r.suffixes) or "(sniffed)",
-                             " ".join(r.options) or "-", getattr(r, "description", "")]
-                            for n, r in table.items()], title="registered readers"))
+        print(
+            format_table(
+                ["reader", "suffixes", "options", "description"],
+                [
+                    [
+                        n,
+                        " ".join(s or "(none)" for s in r.suffixes) or "(sniffed)",
+                        " ".join(r.options) or "-",
+                        getattr(r, "description", ""),
+                    ]
+                    for n, r in table.items()
+                ],
+                title="registered readers",
+            )
+        )
         return 0
-    rec = read_recording(args.file, columns=args.column, reader=args.reader, split_gaps=True,
-                         topic=args.topic, instance=args.instance)
+    rec = read_recording(
+        args.file,
+        columns=args.column,
+        reader=args.reader,
+        split_gaps=True,
+        topic=args.topic,
+        instance=args.instance,
+    )
     rec = rec.to_si(args.unit) if args.unit else rec
     if args.json:
         t = rec.timing
-        print_json({"columns": list(rec.columns), "units": list(rec.units or []), "n": rec.data.shape[0],
-                    "freq": rec.freq, "timing": None if t is None else {
-                        "rate": t.rate, "period": t.period, "start": t.start, "stop": t.stop,
-                        "dropped": t.dropped, "jitter_rms": t.jitter_rms, "jitter_max": t.jitter_max,
-                        "gaps": [[g.index, g.time, g.duration, g.missing] for g in t.gaps]}})
+        print_json(
+            {
+                "columns": list(rec.columns),
+                "units": list(rec.units or []),
+                "n": rec.data.shape[0],
+                "freq": rec.freq,
+                "timing": None
+                if t is None
+                else {
+                    "rate": t.rate,
+                    "period": t.period,
+                    "start": t.start,
+                    "stop": t.stop,
+                    "dropped": t.dropped,
+                    "jitter_rms": t.jitter_rms,
+                    "jitter_max": t.jitter_max,
+                    "gaps": [[g.index, g.time, g.duration, g.missing] for g in t.gaps],
+                },
+            }
+        )
         return 0
     print(rec.summary())
     return 0

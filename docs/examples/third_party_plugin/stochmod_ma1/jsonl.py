@@ -21,7 +21,7 @@ __all__ = ["JsonLinesReader"]
 
 
 class JsonLinesReader(Reader):
-    """JSON Lines: one object per sample, an optional time key (option ``time_key``, default "t")."""
+    """JSON Lines: one object per sample, an optional time key (option ``time_key``, "t")."""
 
     name: ClassVar[str] = "jsonl"
     suffixes: ClassVar[tuple[str, ...]] = (".jsonl",)
@@ -39,10 +39,19 @@ class JsonLinesReader(Reader):
         keys = [k for k in objects[0] if k != time_key]
         for lineno, obj in enumerate(objects, start=len(lines) - len(objects) + 1):
             if set(obj) != set(objects[0]):
-                raise stochmod.InputError(f"{path}: line {lineno} has keys {sorted(obj)}, "
-                                          f"expected {sorted(objects[0])}")
+                raise stochmod.InputError(
+                    f"{path}: line {lineno} has keys {sorted(obj)}, expected {sorted(objects[0])}"
+                )
         data = np.array([[obj[k] for k in keys] for obj in objects], dtype=np.float64)
-        time = np.array([obj[time_key] for obj in objects], dtype=np.float64) \
-            if time_key in objects[0] else None
-        return Recording(data=data, columns=tuple(keys), path=str(path), time=time,
-                         units=tuple(units.get(k) for k in keys) if units else None)
+        time = (
+            np.array([obj[time_key] for obj in objects], dtype=np.float64)
+            if time_key in objects[0]
+            else None
+        )
+        return Recording(
+            data=data,
+            columns=tuple(keys),
+            path=str(path),
+            time=time,
+            units=tuple(units.get(k) for k in keys) if units else None,
+        )
