@@ -219,3 +219,17 @@ def test_mixed_frame_ids_fall_back_to_rosbags(tmp_path: Path) -> None:
     rec = read_recording(path)
     np.testing.assert_array_equal(rec.data, np.hstack([gyro, accel]))
     np.testing.assert_allclose(rec.time, (stamps - EPOCH_NS) * 1e-9, atol=1e-15)
+
+
+def test_batches_join_exactly(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import stochmod_rosbag
+
+    stamps, gyro, accel = _imu(50, seed=9, drop=[23])
+    path = write_imu_bag(tmp_path / "chunks", stamps, gyro, accel, receive_delay_ns=7)
+    monkeypatch.setattr(stochmod_rosbag, "CHUNK", 7)  # 8 batches, the last one short
+    rec = read_recording(path, split_gaps=True)
+    np.testing.assert_array_equal(rec.data, np.hstack([gyro, accel]))
+    np.testing.assert_allclose(rec.time, (stamps - EPOCH_NS) * 1e-9, atol=1e-15)
+    assert [(g.index, g.missing) for g in rec.timing.gaps] == [(22, 1)]
+    bag = read_recording(path, split_gaps=True, stamp="bag")
+    assert bag.time_origin == (EPOCH_NS + 7) * 1e-9

@@ -74,6 +74,37 @@ def _deserialise(bag: Any, messages: list[tuple[Any, int, Any]]) -> tuple[np.nda
     return np.asarray(rows, dtype=np.float64), np.asarray(stamps, dtype=np.int64)
 
 
+#: Messages decoded per batch: bounds the memory held in serialised form.
+CHUNK = 65536
+
+
+def _read_messages(bag: Any, chosen: list[Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Samples (n, 6), header stamps and receive times (ns) of the chosen connections.
+
+    Batches of :data:`CHUNK` messages are decoded at once (:func:`decode`), or one by one by
+    rosbags where a batch mixes layouts.
+    """
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    batch: list[tuple[Any, int, Any]] = []
+
+    def flush() -> None:
+        decoded = decode([raw for _, _, raw in batch], ros2=bag.is2)
+        data, header_ns = _deserialise(bag, batch) if decoded is None else decoded
+        parts.append((data, header_ns, np.array([t for _, t, _ in batch], dtype=np.int64)))
+        batch.clear()
+
+    for item in bag.messages(connections=chosen):
+        batch.append(item)
+        if len(batch) == CHUNK:
+            flush()
+    if batch:
+        flush()
+    if not parts:
+        return np.empty((0, 6)), np.empty(0, np.int64), np.empty(0, np.int64)
+    data, header_ns, received = zip(*parts)
+    return np.vstack(data), np.concatenate(header_ns), np.concatenate(received)
+
+
 class RosbagReader(Reader):
     """ROS 1 ``.bag`` files and ROS 2 bag folders, ``sensor_msgs/msg/Imu`` through rosbags."""
 
@@ -98,22 +129,12 @@ class RosbagReader(Reader):
             with AnyReader([root], default_typestore=get_typestore(Stores.LATEST)) as bag:
                 name = _choose_topic(path, bag.connections, topic)
                 chosen = [c for c in bag.connections if c.topic == name and c.msgtype == IMU_TYPE]
-                messages = [
-                    (conn, t_bag, raw) for conn, t_bag, raw in bag.messages(connections=chosen)
-                ]
-                if not messages:
-                    raise InputError(f"{path}: topic {name!r} holds no messages")
-                decoded = decode([raw for _, _, raw in messages], ros2=bag.is2)
-                if decoded is None:  # mixed layouts: rosbags deserialises each message
-                    decoded = _deserialise(bag, messages)
+                data, header_ns, received = _read_messages(bag, chosen)
         except AnyReaderError as exc:
             raise InputError(f"cannot read {path} as a ROS bag: {exc}") from None
-        data, header_ns = decoded
-        ns = (
-            header_ns
-            if stamp == "header"
-            else np.array([t for _, t, _ in messages], dtype=np.int64)
-        )
+        if data.shape[0] == 0:
+            raise InputError(f"{path}: topic {name!r} holds no messages")
+        ns = header_ns if stamp == "header" else received
         # seconds after the first stamp: exact in float64, where Unix seconds would lose ~0.2 us
         return Recording(
             data=data,
