@@ -256,7 +256,7 @@ def format_names() -> str:
     parts = []
     for name, r in readers().items():
         sfx = ", ".join(s or "no suffix" for s in r.suffixes)
-        parts.append(f"{name} ({sfx})" if sfx else f"{name} (folders)")
+        parts.append(f"{name} ({sfx})" if sfx else f"{name} (by content)")
     return ", ".join(parts) or "none"
 
 
