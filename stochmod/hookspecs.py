@@ -48,4 +48,27 @@ class StochmodSpec:
 
     @hookspec
     def stochmod_readers(self) -> list[Any]:
-        """Return log-format readers (objects with ``suffixes`` and ``read(path) -> Recording``)."""
+        """Return log-format readers, called by :func:`stochmod.io.read_recording`.
+
+        A reader is an object (usually an instance of :class:`stochmod.io.Reader`) declaring:
+
+        ``name`` : str
+            Unique format name (``"csv"``, ``"ulog"``, ``"rosbag"``), chosen with
+            ``read_recording(path, reader=name)``.
+        ``suffixes`` : tuple of str
+            Lower-case file suffixes with the dot (``(".ulg",)``; ``""`` for none) that select it.
+        ``sniff(path) -> bool``
+            Whether a file or folder is in this format whatever its suffix (a ROS 2 bag is a
+            folder holding ``metadata.yaml``); return False when unsure.
+        ``options`` : tuple of str
+            Names of the keyword options ``read`` takes (``("topic", "instance")``); the core
+            refuses any other option with an error naming those accepted.
+        ``description`` : str, optional
+            One line for listings.
+        ``read(path, **options) -> Recording``
+            The samples (n x k, float64), column names, and where the format has them the time
+            stamps in s (``time``), the unit of each column (``units``, e.g. ``"rad/s"``) and a
+            recorded sampling frequency (``freq``). The core checks the data, estimates the rate
+            from the stamps and refuses gaps; a reader only reads. A missing optional
+            dependency raises ImportError naming the extra (:func:`stochmod.io.import_optional`).
+        """

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import importlib
 import threading
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import pluggy
 
-from stochmod.errors import StochmodError, UnknownProcessError
+from stochmod.errors import InputError, StochmodError, UnknownProcessError
 from stochmod.hookspecs import PROJECT_NAME, StochmodSpec
 
 if TYPE_CHECKING:
@@ -27,6 +28,11 @@ __all__ = [
     "processes",
     "criteria",
     "weightings",
+    "readers",
+    "reader_names",
+    "combiners",
+    "combiner_names",
+    "get_combiner",
 ]
 
 _lock = threading.RLock()
@@ -61,6 +67,8 @@ def register_plugin(plugin: object, name: str | None = None) -> None:
     try:
         processes()  # validate names now, not at first use
         weightings()
+        readers()
+        combiners()
     except StochmodError:
         pm.unregister(plugin)
         raise
@@ -111,6 +119,38 @@ def criteria() -> dict[str, Any]:
     return {c.name: c for batch in plugin_manager().hook.stochmod_criteria() for c in batch}
 
 
+def _named_objects(batches: list[list[Any]], kind: str, requirement: str,
+                   conforms: Callable[[Any], bool]) -> dict[str, Any]:
+    """Key the objects of one hook's results by their ``name``, refusing malformed or doubled ones.
+
+    Parameters
+    ----------
+    batches : list of list
+        What the hook returned, one list per plugin, in pluggy's call order.
+    kind : str
+        What the objects are ("weighting", "reader", "combiner"), for messages.
+    requirement : str
+        What `conforms` asks of an object, for messages.
+    conforms : callable
+        True when an object (its ``name`` already checked) has what the contract requires.
+    """
+    found: dict[str, Any] = {}
+    for batch in batches:
+        for obj in batch:
+            name = getattr(obj, "name", None)
+            if not (isinstance(name, str) and name):
+                raise StochmodError(f"plugin returned {obj!r}, which is not a {kind}: it is "
+                                    f"without a name (a non-empty str); a {kind} needs {requirement}")
+            if not conforms(obj):
+                raise StochmodError(f"plugin returned {obj!r}, which is not a {kind} (it needs "
+                                    f"{requirement})")
+            if name in found and found[name] is not obj:
+                raise StochmodError(f"two plugins register a {kind} named {name!r}: "
+                                    f"{type(found[name]).__module__} and {type(obj).__module__}")
+            found[name] = obj
+    return found
+
+
 def weightings() -> dict[str, Any]:
     """Return the registered GMWM weightings keyed by name, sorted (``stochmod_weightings``).
 
@@ -119,15 +159,65 @@ def weightings() -> dict[str, Any]:
     StochmodError
         A weighting without a ``name`` or ``matrix``, or two plugins with one name.
     """
-    found: dict[str, Any] = {}
-    for batch in plugin_manager().hook.stochmod_weightings():
-        for w in batch:
-            name = getattr(w, "name", None)
-            if not isinstance(name, str) or not name or not callable(getattr(w, "matrix", None)):
-                raise StochmodError(f"plugin returned {w!r}, which is not a weighting (a name "
-                                    "and matrix(data) are required)")
-            if name in found and found[name] is not w:
-                raise StochmodError(f"two plugins register a weighting named {name!r}: "
-                                    f"{type(found[name]).__module__} and {type(w).__module__}")
-            found[name] = w
+    found = _named_objects(plugin_manager().hook.stochmod_weightings(), "weighting",
+                           "a name and matrix(data)",
+                           lambda w: callable(getattr(w, "matrix", None)))
     return dict(sorted(found.items()))
+
+
+def _is_reader(obj: Any) -> bool:
+    suffixes = getattr(obj, "suffixes", ())
+    return (isinstance(suffixes, tuple) and all(isinstance(s, str) for s in suffixes)
+            and callable(getattr(obj, "read", None)) and callable(getattr(obj, "sniff", None)))
+
+
+def readers() -> dict[str, Any]:
+    """Return the registered log-format readers keyed by name, in registration order
+    (hook ``stochmod_readers``; the order in which :func:`stochmod.io.read_recording` sniffs).
+
+    Raises
+    ------
+    StochmodError
+        A reader without a name, suffixes or methods, or two readers of one name.
+    """
+    return _named_objects(list(reversed(plugin_manager().hook.stochmod_readers())), "reader",
+                          "a tuple of str suffixes and callable read(path, **options) and "
+                          "sniff(path)", _is_reader)
+
+
+def reader_names() -> list[str]:
+    """Return the names of the registered readers, in registration order."""
+    return list(readers())
+
+
+def combiners() -> dict[str, Any]:
+    """Return every registered redundant-sensor combiner, keyed by its ``name``, sorted.
+
+    Raises
+    ------
+    StochmodError
+        A plugin returned an object without ``name``, ``assumes`` and a callable ``combine``, or
+        two plugins register the same name.
+    """
+    found = _named_objects(
+        plugin_manager().hook.stochmod_combiners(), "combiner",
+        "a str `name`, a str `assumes` and a `combine(x, **options)` method",
+        lambda c: isinstance(getattr(c, "assumes", None), str) and callable(getattr(c, "combine", None)),
+    )
+    return dict(sorted(found.items()))
+
+
+def combiner_names() -> list[str]:
+    """Return the names of the registered combiners, sorted."""
+    return list(combiners())
+
+
+def get_combiner(name: str) -> Any:
+    """Return the combiner registered under `name` (e.g. ``"garch"``)."""
+    table = combiners()
+    try:
+        return table[name]
+    except KeyError:
+        raise InputError(
+            f"unknown combiner {name!r}; registered combiners: {', '.join(table) or 'none'}"
+        ) from None

@@ -87,6 +87,7 @@ __all__ = [
     "check_rediscretisation",
     "check_wv_jacobian",
     "check_weighting",
+    "check_reader",
 ]
 
 
@@ -973,3 +974,95 @@ def check_weighting(weighting: Any, model: Any, freq: float = 100.0, *, rng: Rng
     return {"levels": J, "condition": float(np.linalg.cond(omega)),
             "covariance": made.covariance is not None, "scale_rel_error": scale_error,
             "registered": registered, "objective": objective}
+
+
+# ---------------------------------------------------------------------------- readers
+def check_reader(reader: Any, path: Any, *, expected: Any = None, **options: Any) -> Figures:
+    """Check a log-format reader against the ``stochmod_readers`` contract on a sample file.
+
+    Parameters
+    ----------
+    reader : object
+        The reader (e.g. a :class:`stochmod.io.Reader` instance), registered or not.
+    path : str or Path
+        A sample file or folder in the reader's format.
+    expected : array_like, shape (n, k), optional
+        The samples the file holds; the data read must equal them exactly.
+    **options
+        Reader options to pass (each must be declared in ``reader.options``).
+
+    Returns
+    -------
+    dict
+        ``n``, ``k``, ``has_time``, ``rate`` (Hz, from the time stamps, or None).
+
+    Raises
+    ------
+    AssertionError
+        A declaration is missing or malformed (name, suffixes, options, sniff, read), ``read``
+        does not accept its declared options, the result is not a finite (n, k) Recording with
+        matching names, units that parse and strictly increasing time stamps, the data differ
+        from `expected`, or, when the reader is registered, ``read_recording`` does not
+        dispatch to it, read the same data or refuse an undeclared option.
+    """
+    import inspect
+    from pathlib import Path
+
+    from stochmod.io import Recording, read_recording
+    from stochmod.registry import readers
+    from stochmod.timing import analyse_timing
+    from stochmod.units import parse_unit
+
+    path = Path(path)
+    name = getattr(reader, "name", None)
+    assert isinstance(name, str) and name, f"reader {reader!r} has no name"
+    suffixes, declared = getattr(reader, "suffixes", ()), getattr(reader, "options", ())
+    assert isinstance(suffixes, tuple) and all(
+        isinstance(s, str) and s == s.lower() and (s == "" or s.startswith(".")) for s in suffixes
+    ), f"reader {name!r}: suffixes must be a tuple of lower-case '.ext' strings, got {suffixes!r}"
+    assert isinstance(declared, tuple) and all(isinstance(o, str) for o in declared), (
+        f"reader {name!r}: options must be a tuple of str, got {declared!r}")
+    undeclared = sorted(set(options) - set(declared))
+    assert not undeclared, f"reader {name!r}: options {undeclared} passed but not declared"
+    params = inspect.signature(reader.read).parameters
+    takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    missing = [o for o in declared if o not in params and not takes_any]
+    assert not missing, f"reader {name!r}: read() does not accept its declared option(s) {missing}"
+    for probe in (path, path.parent / f"{path.name}.not-a-log-{name}"):
+        verdict = reader.sniff(probe)
+        assert isinstance(verdict, bool), (
+            f"reader {name!r}: sniff({probe}) returned {verdict!r}, not a bool")
+    assert suffixes or reader.sniff(path), (
+        f"reader {name!r} declares no suffix and its sniff does not recognise {path}")
+
+    rec = reader.read(path, **options)
+    assert isinstance(rec, Recording), (
+        f"reader {name!r} returned {type(rec).__name__}, not a Recording")
+    data = np.asarray(rec.data)
+    assert data.ndim == 2 and data.shape[0] >= 2 and data.shape[1] == len(rec.columns), (
+        f"reader {name!r}: data of shape {data.shape} for columns {rec.columns}")
+    assert np.all(np.isfinite(data.astype(np.float64))), f"reader {name!r}: non-finite samples"
+    assert len(set(rec.columns)) == len(rec.columns), (
+        f"reader {name!r}: repeated column names {rec.columns}")
+    for unit in rec.units or ():
+        if unit is not None:
+            parse_unit(unit)  # InputError (a failure) when a unit does not parse
+    rate = None
+    if rec.time is not None:
+        rate = analyse_timing(rec.time, name=f"reader {name!r}: time stamps of {path}").rate
+    if expected is not None:
+        want = np.asarray(expected, dtype=np.float64).reshape(data.shape[0], -1)
+        np.testing.assert_array_equal(data, want, err_msg=f"reader {name!r}: samples differ")
+
+    if readers().get(name) is reader:
+        via = read_recording(path, split_gaps=True, **options)
+        np.testing.assert_array_equal(via.data, data,
+                                      err_msg=f"read_recording({path}) differs from {name!r}")
+        try:
+            read_recording(path, reader=name, split_gaps=True, not_an_option_of_any_reader=1)
+        except InputError as exc:
+            assert "not_an_option_of_any_reader" in str(exc), f"unclear refusal: {exc}"
+        else:
+            raise AssertionError(f"read_recording passed an undeclared option to reader {name!r}")
+    return {"n": int(data.shape[0]), "k": int(data.shape[1]), "has_time": rec.time is not None,
+            "rate": rate}

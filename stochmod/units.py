@@ -119,6 +119,7 @@ _BASE: dict[str, tuple[float, Dims]] = {
     "s": (1.0, _TIME),
     "ms": (1e-3, _TIME),
     "us": (1e-6, _TIME),
+    "ns": (1e-9, _TIME),
     "min": (MINUTE, _TIME),
     "h": (HOUR, _TIME),
     "Hz": (1.0, _FREQ),

@@ -190,3 +190,26 @@ def test_the_relative_weighting_gives_the_closed_form_white_noise_estimate(ma1: 
 def test_the_relative_weighting_passes_the_conformance_kit(ma1: ModuleType) -> None:
     figures = check_weighting(ma1.RELATIVE, "MA1(theta=0.4, sigma2=2.0) + RW(sigma2=1e-4)", FREQ, rng=3)
     assert figures["registered"] and figures["scale_rel_error"] < 1e-12
+
+
+def test_third_party_reader_is_dispatched_and_conforms(ma1: ModuleType, tmp_path: Path) -> None:
+    from stochmod.io import read_recording
+    from stochmod.registry import readers
+    from stochmod.testing import check_reader
+
+    rng = np.random.default_rng(9)
+    t, x = np.arange(30) / 50.0, rng.normal(size=(30, 2))
+    lines = [json.dumps({"units": {"gx": "deg/s"}})]
+    lines += [json.dumps({"t": float(ti), "gx": float(a), "az": float(b)}) for ti, (a, b) in zip(t, x)]
+    path = tmp_path / "imu.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    rec = read_recording(path)
+    np.testing.assert_array_equal(rec.data, x)  # json round-trips float64 exactly (repr)
+    assert rec.columns == ("gx", "az") and rec.units == ("deg/s", None)
+    assert rec.freq == pytest.approx(50.0, rel=1e-9)
+    np.testing.assert_allclose(rec.to_si().data[:, 0], x[:, 0] * math.pi / 180.0, rtol=1e-15)
+    assert check_reader(readers()["jsonl"], path, expected=x)["has_time"]
+    with pytest.raises(InputError, match=r"line 3 has keys \['gx', 't'\]"):
+        bad = tmp_path / "bad.jsonl"
+        bad.write_text(lines[1] + "\n" + lines[2] + "\n" + json.dumps({"t": 1.0, "gx": 0.0}) + "\n")
+        read_recording(bad)

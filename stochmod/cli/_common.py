@@ -28,11 +28,51 @@ def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool 
     parser.add_argument("--column", action="append", default=None, metavar="C",
                         help="column name or 0-based index; repeat for several (default: all)")
     parser.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    log = parser.add_argument_group("logs, time stamps and units (docs/readers.md)")
+    log.add_argument("--reader", default=None, metavar="NAME",
+                     help="reader to use (default: by the file's content, then its suffix)")
+    log.add_argument("--topic", default=None, metavar="NAME",
+                     help="topic of a ROS bag (/imu) or a PX4 ULog (sensor_combined, "
+                          "vehicle_imu, ...)")
+    log.add_argument("--instance", type=int, default=None, metavar="K",
+                     help="instance of a multi-instance ULog topic (default 0)")
+    log.add_argument("--unit", default=None, metavar="UNIT",
+                     help="unit of the data, e.g. deg/s, mg (default: the file's header); "
+                          "converted to SI (allan reports in it)")
+    log.add_argument("--split-gaps", action="store_true",
+                     help="accept gaps in the time stamps and use the gap-free data "
+                          "(without it a gap is an error that says where)")
 
 
-def load_input(args: argparse.Namespace) -> tuple[Recording, float]:
-    """Read ``args.file`` restricted to ``args.column`` and resolve the sampling frequency."""
-    rec = read_recording(args.file, columns=args.column)
+def _longest_segment(rec: Recording) -> Recording:
+    """The longest gap-free piece of `rec` (pooling all pieces is not wired into the CLIs yet)."""
+    pieces = rec.segments()
+    if len(pieces) == 1:
+        return rec
+    longest = max(pieces, key=lambda r: r.data.shape[0])
+    print(f"{rec.path}: {len(pieces)} gap-free segments; using the longest "
+          f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, "
+          f"from t = {longest.time[0]:.6g} s)",
+          file=sys.stderr)
+    return longest
+
+
+def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recording, float]:
+    """Read ``args.file`` restricted to ``args.column``, in SI, and resolve the sampling frequency.
+
+    The reader options (``--reader``, ``--topic``, ``--instance``, ``--split-gaps``) go to
+    :func:`~stochmod.io.read_recording`; ``--unit`` (else the file's units) converts to SI
+    unless `to_si` is False (a subcommand that reports in the user's unit).
+    """
+    rec = read_recording(args.file, columns=args.column, reader=getattr(args, "reader", None),
+                         split_gaps=getattr(args, "split_gaps", False),
+                         topic=getattr(args, "topic", None),
+                         instance=getattr(args, "instance", None))
+    if rec.timing is not None:
+        t = rec.timing
+        print(f"{args.file}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "
+              f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
+    rec = _longest_segment(rec.to_si(getattr(args, "unit", None)) if to_si else rec)
     freq = args.freq if args.freq is not None else rec.freq
     if freq is None:
         raise InputError(f"{args.file} does not record its sampling frequency: pass --freq HZ")

@@ -35,8 +35,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "the overlapping Allan variance unless this is non-overlapping)")
     p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
                    help="averaging times of the table (default octave)")
-    p.add_argument("--unit", default=None, metavar="U",
-                   help="unit of the columns (rad/s, deg/s, m/s^2, g ...): adds datasheet values")
     p.add_argument("--alpha", type=float, default=0.05,
                    help="significance level of the intervals (default 0.05)")
     p.add_argument("--plot", default=None, metavar="OUT.png",
@@ -49,13 +47,15 @@ def run(args: argparse.Namespace) -> int:
     """Compute, print (table or JSON) and optionally plot every selected column."""
     if args.plot:
         _check_plot_path(args.plot)
-    rec, freq = load_input(args)
+    rec, freq = load_input(args, to_si=False)  # the reading reports in --unit (or the file's)
+    units = rec.units or (None,) * len(rec.columns)
     reading_kind = "non-overlapping" if args.kind == "non-overlapping" else "overlapping"
     results: dict[str, tuple[AllanVariance, AllanReading]] = {}
     for k, name in enumerate(rec.columns):
         x = rec.data[:, k]
         table = avar(x, freq, taus=args.taus, kind=args.kind, alpha=args.alpha)
-        reading = allan_reading(x, freq, kind=reading_kind, alpha=args.alpha, unit=args.unit)
+        reading = allan_reading(x, freq, kind=reading_kind, alpha=args.alpha,
+                                unit=args.unit or units[k])
         results[name] = (table, reading)
     if args.plot:
         plot_reading({n: r for n, (_, r) in results.items()}, args.plot,

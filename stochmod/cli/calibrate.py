@@ -58,6 +58,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _input(args: argparse.Namespace) -> tuple[Recording, float]:
     if args.file is None:
+        # reader options (stochmod.cli._common) apply to files only
+        given = [f"--{o.replace('_', '-')}" for o in ("reader", "topic", "instance", "unit")
+                 if getattr(args, o) is not None] + (["--split-gaps"] if args.split_gaps else [])
+        if given:
+            verb = "applies" if len(given) == 1 else "apply"
+            raise InputError(f"{', '.join(given)} {verb} to a FILE, not to the bundled example")
         rec = xsens_mtig(n=args.n).select(args.column)
         if args.freq is not None and args.freq != rec.freq:
             raise InputError(f"--freq {args.freq:g} does not apply to the bundled example ({rec.freq:g} Hz)")
@@ -166,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     report = calibration_report(results, rec, freq, dt, args.scale)
     path = out / "calibration.json"
     path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
-    units = XSENS_UNITS if args.file is None else {}
+    units = XSENS_UNITS if args.file is None else rec.unit_map()
     figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units)
     if args.json:
         print_json(report)

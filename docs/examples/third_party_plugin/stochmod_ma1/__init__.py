@@ -20,9 +20,11 @@ from numpy.typing import ArrayLike
 
 import stochmod
 
+from stochmod_ma1.jsonl import JsonLinesReader
 from stochmod_ma1.weighting import RELATIVE, RelativeWeighting, stochmod_weightings
 
-__all__ = ["MA1", "stochmod_processes", "RelativeWeighting", "RELATIVE", "stochmod_weightings"]
+__all__ = ["MA1", "stochmod_processes", "RelativeWeighting", "RELATIVE", "stochmod_weightings",
+           "JsonLinesReader", "stochmod_readers"]
 
 __version__ = "0.1.0"
 
@@ -163,3 +165,9 @@ class MA1(stochmod.Process):
 def stochmod_processes() -> list[type[stochmod.Process]]:
     """Register MA1."""
     return [MA1]
+
+
+@stochmod.hookimpl
+def stochmod_readers() -> list[JsonLinesReader]:
+    """Register the JSON Lines reader (a log format, see jsonl.py)."""
+    return [JsonLinesReader()]
