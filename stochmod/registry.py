@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import pluggy
 
-from stochmod.errors import StochmodError, UnknownProcessError
+from stochmod.errors import InputError, StochmodError, UnknownProcessError
 from stochmod.hookspecs import PROJECT_NAME, StochmodSpec
 
 if TYPE_CHECKING:
@@ -26,6 +26,9 @@ __all__ = [
     "get_process",
     "processes",
     "criteria",
+    "combiners",
+    "combiner_names",
+    "get_combiner",
 ]
 
 _lock = threading.RLock()
@@ -106,3 +109,47 @@ def get_process(name: str) -> type[Process]:
 def criteria() -> dict[str, Any]:
     """Return the registered model-selection criteria keyed by name."""
     return {c.name: c for batch in plugin_manager().hook.stochmod_criteria() for c in batch}
+
+
+def combiners() -> dict[str, Any]:
+    """Return every registered redundant-sensor combiner, keyed by its ``name``, sorted.
+
+    Raises
+    ------
+    StochmodError
+        A plugin returned an object without ``name``, ``assumes`` and a callable ``combine``, or
+        two plugins register the same name.
+    """
+    found: dict[str, Any] = {}
+    for batch in plugin_manager().hook.stochmod_combiners():
+        for comb in batch:
+            name = getattr(comb, "name", None)
+            if not (isinstance(name, str) and name and isinstance(getattr(comb, "assumes", None), str)
+                    and callable(getattr(comb, "combine", None))):
+                raise StochmodError(
+                    f"plugin returned {comb!r}, which is not a combiner (it needs a str `name`, "
+                    "a str `assumes` and a `combine(x, **options)` method)"
+                )
+            if name in found and found[name] is not comb:
+                raise StochmodError(
+                    f"two plugins register a combiner named {name!r}: "
+                    f"{type(found[name]).__module__} and {type(comb).__module__}"
+                )
+            found[name] = comb
+    return dict(sorted(found.items()))
+
+
+def combiner_names() -> list[str]:
+    """Return the names of the registered combiners, sorted."""
+    return list(combiners())
+
+
+def get_combiner(name: str) -> Any:
+    """Return the combiner registered under `name` (e.g. ``"garch"``)."""
+    table = combiners()
+    try:
+        return table[name]
+    except KeyError:
+        raise InputError(
+            f"unknown combiner {name!r}; registered combiners: {', '.join(table) or 'none'}"
+        ) from None

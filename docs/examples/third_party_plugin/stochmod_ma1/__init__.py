@@ -11,7 +11,7 @@ registers it), or register it at run time with ``stochmod.register_plugin(stochm
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 
 import stochmod
 
-__all__ = ["MA1", "stochmod_processes"]
+__all__ = ["MA1", "stochmod_processes", "stochmod_combiners"]
 
 __version__ = "0.1.0"
 
@@ -160,3 +160,11 @@ class MA1(stochmod.Process):
 def stochmod_processes() -> list[type[stochmod.Process]]:
     """Register MA1."""
     return [MA1]
+
+
+@stochmod.hookimpl
+def stochmod_combiners() -> list[Any]:
+    """Register the median combiner (a second plugin point served by the same package)."""
+    from stochmod_ma1.median import MedianCombiner
+
+    return [MedianCombiner()]
