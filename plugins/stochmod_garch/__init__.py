@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
+from stochmod._validation import check_positive_int
 from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
@@ -58,11 +59,13 @@ def _orders(value: Any, name: str) -> tuple[int, int] | None:
 
 
 def _fit_axis(r: np.ndarray, sensor: int, axis: int | None, arma: Any, garch: Any,
-              max_order: int, lags: int) -> tuple[np.ndarray, np.ndarray, SensorVolatility]:
+              max_order: int, lags: int, select_samples: int
+              ) -> tuple[np.ndarray, np.ndarray, SensorVolatility]:
     """Conditional mean (T,), conditional variance (T,) and the fits of one residual series."""
     arma_order = _orders(arma, "arma")
-    mean_fit = (select_arma(r, max_p=max_order, max_q=max_order) if arma_order is None
-                else fit_arma(r, *arma_order))
+    if arma_order is None:
+        arma_order = select_arma(r[:select_samples], max_p=max_order, max_q=max_order).order
+    mean_fit = fit_arma(r, *arma_order)
     e = mean_fit.innovations(r)
     p = mean_fit.order[0]
     garch_order = _orders(garch, "garch")
@@ -86,7 +89,7 @@ class GarchCombiner:
                               "time); residuals from the mean stand in for errors")
 
     def combine(self, x: Any, *, arma: Any = "aic", garch: Any = "lm", max_order: int = 2,
-                lags: int = 10) -> CombinationResult:
+                lags: int = 10, select_samples: int = 2**15) -> CombinationResult:
         """Fit each sensor and axis, then weight by the inverse conditional variances.
 
         Parameters
@@ -94,14 +97,18 @@ class GarchCombiner:
         x : array_like, shape (n, T) or (n, T, 3)
             Time-aligned sensors, unit u (any scale).
         arma : "aic" or (p, q)
-            ARMA orders of the mean model: chosen by AIC up to ``(max_order, max_order)``, or fixed.
+            ARMA orders of the mean model: chosen by AIC up to ``(max_order, max_order)`` on the
+            first `select_samples` samples (then fitted on all), or fixed.
         garch : "lm" or (p, q)
             GARCH orders: grown until the LM test passes, or fixed.
         max_order : int
             Largest order tried by the automatic choices.
         lags : int
             Lags of Engle's LM test.
+        select_samples : int
+            Samples of the AIC order choice (the first ones; default 2^15).
         """
+        select_samples = check_positive_int(select_samples, name="select_samples", minimum=100)
         x = as_sensor_array(x, min_length=100)
         n = x.shape[0]
         r = residuals_from_mean(x)
@@ -117,7 +124,7 @@ class GarchCombiner:
         fits = []
         for i, j in cols:
             idx = (i, slice(None), j) if triad else (i,)
-            m, v, fit = _fit_axis(r[idx], i, j, arma, garch, max_order, lags)
+            m, v, fit = _fit_axis(r[idx], i, j, arma, garch, max_order, lags, select_samples)
             mean[idx], s2[idx] = m, v
             fits.append(fit)
         inv = 1.0 / s2
@@ -127,7 +134,9 @@ class GarchCombiner:
             signal=np.sum(weights * (x - mean), axis=0), weights=weights, variance=1.0 / total,
             method=self.name, assumes=self.assumes, sensor_variance=s2, sensors=tuple(fits),
             info={"arma": arma if isinstance(arma, str) else tuple(arma),
-                  "garch": garch if isinstance(garch, str) else tuple(garch), "lags": lags},
+                  "garch": garch if isinstance(garch, str) else tuple(garch), "lags": lags,
+                  "orders": ", ".join(f"{f.sensor}{'' if f.axis is None else '.' + str(f.axis)}: "
+                                      f"ARMA{f.arma.order} GARCH{f.garch.order}" for f in fits)},
         )
 
 

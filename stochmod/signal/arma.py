@@ -29,12 +29,12 @@ from stochmod.reporting import format_table
 __all__ = ["ArmaFit", "fit_arma", "select_arma", "arma_innovations"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
+_START_SAMPLES = 2**17
 
 
-def _lag_matrix(x: np.ndarray, lags: int, start: int) -> np.ndarray:
-    """Columns ``x[t - 1], .., x[t - lags]`` for ``t = start .. T - 1``."""
-    return np.column_stack([x[start - i : x.size - i] for i in range(1, lags + 1)]) if lags else \
-        np.empty((x.size - start, 0))
+def _lag_rows(x: np.ndarray, lags: int, start: int) -> list[np.ndarray]:
+    """Rows ``x[t - 1], .., x[t - lags]`` for ``t = start .. T - 1``."""
+    return [x[start - i : x.size - i] for i in range(1, lags + 1)]
 
 
 def _innovations(x: np.ndarray, nu: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -47,7 +47,7 @@ def _innovations(x: np.ndarray, nu: float, a: np.ndarray, b: np.ndarray) -> np.n
 
 
 def _jacobian(x: np.ndarray, e: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``d e / d (nu, a, b)``, shape (T - p, 1 + p + q)."""
+    """``d e / d (nu, a, b)`` as rows, shape (1 + p + q, T - p)."""
     p, q = a.size, b.size
     drive = np.empty((1 + p + q, e.size))
     drive[0] = -1.0
@@ -58,7 +58,15 @@ def _jacobian(x: np.ndarray, e: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.
         drive[p + j, j:] = -e[:-j]
     if q:
         drive = lfilter([1.0], np.concatenate([[1.0], b]), drive, axis=1)
-    return drive.T
+    return drive
+
+
+def _lstsq(rows: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least squares ``min |rows^T c - y|`` by the normal equations (few regressors as rows of
+    a C-contiguous array, many samples), refined once."""
+    gram = rows @ rows.T
+    coef = np.linalg.solve(gram, rows @ y)
+    return coef + np.linalg.solve(gram, rows @ (y - rows.T @ coef))
 
 
 def _max_root_modulus(poly_tail: np.ndarray, sign: float) -> float:
@@ -69,19 +77,21 @@ def _max_root_modulus(poly_tail: np.ndarray, sign: float) -> float:
 
 
 def _hannan_rissanen(x: np.ndarray, p: int, q: int) -> np.ndarray:
-    """Starting values ``(nu, a, b)``: long-AR residuals, then least squares on lags of x and e."""
+    """Starting values ``(nu, a, b)``: long-AR residuals, then least squares on lags of x and e
+    (over the first ``_START_SAMPLES`` samples: it is only a start)."""
+    x = x[:_START_SAMPLES]
     if q == 0:
         m = 0
         e = np.zeros_like(x)
     else:
         m = min(max(2 * (p + q), 10), x.size // 10)
-        X = np.column_stack([np.ones(x.size - m), _lag_matrix(x, m, m)])
-        coef = np.linalg.lstsq(X, x[m:], rcond=None)[0]
+        X = np.array([np.ones(x.size - m), *_lag_rows(x, m, m)])
+        coef = _lstsq(X, x[m:])
         e = np.zeros_like(x)
-        e[m:] = x[m:] - X @ coef
+        e[m:] = x[m:] - coef @ X
     start = m + max(p, q)
-    X = np.column_stack([np.ones(x.size - start), _lag_matrix(x, p, start), _lag_matrix(e, q, start)])
-    theta = np.linalg.lstsq(X, x[start:], rcond=None)[0]
+    X = np.array([np.ones(x.size - start), *_lag_rows(x, p, start), *_lag_rows(e, q, start)])
+    theta = _lstsq(X, x[start:])
     b = theta[1 + p :]
     if _max_root_modulus(b, 1.0) >= 0.99:  # keep the start invertible
         theta[1 + p :] *= 0.9 / _max_root_modulus(b, 1.0)
@@ -185,7 +195,42 @@ def arma_innovations(x: ArrayLike, nu: float, ar: ArrayLike, ma: ArrayLike) -> n
                         np.atleast_1d(np.asarray(ma, float)))
 
 
-def fit_arma(x: ArrayLike, p: int = 1, q: int = 1, *, max_iter: int = 50, tol: float = 1e-10
+def _gauss_newton(y: np.ndarray, p: int, theta: np.ndarray, max_iter: int, tol: float
+                  ) -> tuple[np.ndarray, np.ndarray, float, bool, np.ndarray]:
+    """Minimise the conditional sum of squares from `theta`; step halving keeps the MA invertible.
+
+    Returns the estimate, its innovations and sum of squares, whether the tolerance was met,
+    and the Jacobian at the last point where one was computed (the estimate, or the point
+    one converged step before it, which differs from it by far less than a standard error).
+    """
+    e = _innovations(y, theta[0], theta[1 : 1 + p], theta[1 + p :])
+    ssr = float(e @ e)
+    jac = _jacobian(y, e, theta[1 : 1 + p], theta[1 + p :])
+    if theta.size == 1:  # the constant alone is solved exactly by least squares
+        return theta, e, ssr, True, jac
+    for it in range(max_iter):
+        if it:
+            jac = _jacobian(y, e, theta[1 : 1 + p], theta[1 + p :])
+        step = _lstsq(jac, -e)
+        t = 1.0
+        while t > 1e-6:
+            cand = theta + t * step
+            if _max_root_modulus(cand[1 + p :], 1.0) < 1.0:
+                e_new = _innovations(y, cand[0], cand[1 : 1 + p], cand[1 + p :])
+                ssr_new = float(e_new @ e_new)
+                if np.isfinite(ssr_new) and ssr_new <= ssr:
+                    break
+            t /= 2.0
+        else:
+            return theta, e, ssr, True, jac  # no descent left along the Gauss-Newton direction
+        done = ssr - ssr_new <= tol * ssr
+        theta, e, ssr = cand, e_new, ssr_new
+        if done:
+            return theta, e, ssr, True, jac
+    return theta, e, ssr, False, jac
+
+
+def fit_arma(x: ArrayLike, p: int = 1, q: int = 1, *, max_iter: int = 50, tol: float = 1e-9
              ) -> ArmaFit:
     """Fit ARMA(p, q) with a constant (eq. 10) by conditional Gaussian maximum likelihood.
 
@@ -215,29 +260,9 @@ def fit_arma(x: ArrayLike, p: int = 1, q: int = 1, *, max_iter: int = 50, tol: f
         raise InputError("x is constant: no ARMA model can be fitted")
     y = x / scale
     theta = _hannan_rissanen(y, p, q)
-    e = _innovations(y, theta[0], theta[1 : 1 + p], theta[1 + p :])
-    ssr = float(e @ e)
-    converged = p + q == 0  # the constant alone is solved exactly by least squares
-    for _ in range(0 if converged else max_iter):
-        jac = _jacobian(y, e, theta[1 : 1 + p], theta[1 + p :])
-        step = np.linalg.lstsq(jac, -e, rcond=None)[0]
-        t = 1.0
-        while t > 1e-6:
-            cand = theta + t * step
-            if _max_root_modulus(cand[1 + p :], 1.0) < 1.0:
-                e_new = _innovations(y, cand[0], cand[1 : 1 + p], cand[1 + p :])
-                ssr_new = float(e_new @ e_new)
-                if np.isfinite(ssr_new) and ssr_new <= ssr:
-                    break
-            t /= 2.0
-        else:
-            converged = True  # no descent left along the Gauss-Newton direction
-            break
-        done = ssr - ssr_new <= tol * ssr
-        theta, e, ssr = cand, e_new, ssr_new
-        if done:
-            converged = True
-            break
+    if y.size > 4 * _START_SAMPLES:  # converge on a prefix first: the full record then needs few steps
+        theta = _gauss_newton(y[:_START_SAMPLES], p, theta, max_iter, tol)[0]
+    theta, e, ssr, converged, jac = _gauss_newton(y, p, theta, max_iter, tol)
     a, b = theta[1 : 1 + p], theta[1 + p :]
     if _max_root_modulus(a, -1.0) >= 1.0:
         raise EstimationError(f"the fitted ARMA({p},{q}) has a non-stationary AR part (a = {a})")
@@ -245,9 +270,8 @@ def fit_arma(x: ArrayLike, p: int = 1, q: int = 1, *, max_iter: int = 50, tol: f
         raise EstimationError(f"the fitted ARMA({p},{q}) has a non-invertible MA part (b = {b})")
     n = e.size
     sigma2 = ssr / n
-    jac = _jacobian(y, e, a, b)
     try:
-        cov = sigma2 * np.linalg.inv(jac.T @ jac)
+        cov = sigma2 * np.linalg.inv(jac @ jac.T)
     except np.linalg.LinAlgError:
         cov = np.full((theta.size, theta.size), np.nan)
     units = np.ones(theta.size)
