@@ -70,8 +70,10 @@ def calibration_models(calibration: str | Path | dict, columns: Sequence[str] | 
     return [model_from_spec(table[c]["model"]) for c in columns]
 
 
-def _model_level(model: Any, tau: float | None) -> float:
-    model = model_from_spec(model) if not isinstance(model, Model) else model
+def _model_level(model: Any, tau: float | None, freq: float | None) -> float:
+    model = model_from_spec(model, freq) if not isinstance(model, Model) else model
+    if model.freq is None and freq is not None:
+        model = model.bind(check_freq(freq))
     if tau is None:
         level = float(model.augment().white_var)
         if not level > 0:
@@ -118,7 +120,8 @@ class InverseVariance:
             Averaging time (s) of the wavelet variance used as level; default: the white-noise
             variance per sample (models) or the level-1 wavelet variance (data).
         freq : float, optional
-            Sampling frequency (Hz) of `x`; needed with `tau` when no model is given.
+            Sampling frequency (Hz) of `x`; needed with `tau` when no model is given, and binds
+            models given without one.
         """
         x = as_sensor_array(x, min_length=4)
         n, axes = x.shape[0], (x.shape[2] if x.ndim == 3 else None)
@@ -135,11 +138,11 @@ class InverseVariance:
             if len(models) != n:
                 raise InputError(f"{len(models)} model(s) for {n} sensors")
             if axes:
-                levels = np.array([[_model_level(m, tau) for m in ms] for ms in models])
+                levels = np.array([[_model_level(m, tau, freq) for m in ms] for ms in models])
                 if levels.shape != (n, axes):
                     raise InputError(f"triads need {axes} models per sensor")
             else:
-                levels = np.array([_model_level(m, tau) for m in models])
+                levels = np.array([_model_level(m, tau, freq) for m in models])
             info["source"] = "models"
         else:
             r = residuals_from_mean(x)

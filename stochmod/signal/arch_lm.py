@@ -74,18 +74,12 @@ def arch_lm_test(z: ArrayLike, lags: int = 10) -> ArchLMTest:
     if np.ptp(y) == 0:
         raise InputError("z^2 is constant: the LM regression has no variance to explain")
     nobs = y.size
-    # centred regressors (the constant drops out): the cross-products of the lagged columns are
-    # dot products of shifted views (no T x m design matrix); explained sum of squares b' X'y
-    # from the normal equations, solved by Cholesky: R^2 = ESS / SST
-    t = z2.size
-    cols = [z2[lags - i : t - i] for i in range(1, lags + 1)]
-    means = np.array([c.mean() for c in cols])
+    # centred regressors (the constant drops out); explained sum of squares b' X'y from the
+    # normal equations (one matrix product), solved by Cholesky: R^2 = ESS / SST
+    design = np.lib.stride_tricks.sliding_window_view(z2[:-1], lags)[:, ::-1]
+    design = design - design.mean(axis=0)
     yc = y - y.mean()
-    xty = np.array([c @ yc for c in cols])
-    xtx = np.empty((lags, lags))
-    for a in range(lags):
-        for b in range(a, lags):
-            xtx[a, b] = xtx[b, a] = cols[a] @ cols[b] - nobs * means[a] * means[b]
-    coef = linalg.solve(xtx, xty, assume_a="pos", check_finite=False)
+    xty = yc @ design
+    coef = linalg.solve(design.T @ design, xty, assume_a="pos", check_finite=False)
     stat = nobs * float(coef @ xty) / float(yc @ yc)
     return ArchLMTest(statistic=stat, pvalue=float(stats.chi2.sf(stat, lags)), lags=lags, nobs=nobs)

@@ -204,7 +204,7 @@ def _gauss_newton(y: np.ndarray, p: int, theta: np.ndarray, max_iter: int, tol: 
     one converged step before it, which differs from it by far less than a standard error).
     """
     e = _innovations(y, theta[0], theta[1 : 1 + p], theta[1 + p :])
-    ssr = float(e @ e)
+    ssr = float(np.einsum("i,i->", e, e))
     jac = _jacobian(y, e, theta[1 : 1 + p], theta[1 + p :])
     if theta.size == 1:  # the constant alone is solved exactly by least squares
         return theta, e, ssr, True, jac
@@ -217,7 +217,7 @@ def _gauss_newton(y: np.ndarray, p: int, theta: np.ndarray, max_iter: int, tol: 
             cand = theta + t * step
             if _max_root_modulus(cand[1 + p :], 1.0) < 1.0:
                 e_new = _innovations(y, cand[0], cand[1 : 1 + p], cand[1 + p :])
-                ssr_new = float(e_new @ e_new)
+                ssr_new = float(np.einsum("i,i->", e_new, e_new))
                 if np.isfinite(ssr_new) and ssr_new <= ssr:
                     break
             t /= 2.0
