@@ -496,9 +496,11 @@ def gmwm(
 
     Parameters
     ----------
-    data : array_like or WaveletVariance
+    data : array_like, WaveletVariance or list of array_like
         The static error signal (unit u, mean removed or not: the Haar WV ignores the mean),
-        or a precomputed empirical wavelet variance.
+        or a precomputed empirical wavelet variance, or a list of replicate signals of one
+        sensor model (:mod:`stochmod.fit.pooled`: their pooled WV is matched, the inference
+        uses its covariance, and ``result.pooled`` holds the pooling and the equality test).
     model : Model, Process, str or dict
         The composite model (``"2*GM+WN"``, ``GM() + WN()`` ...); parameters with values are
         held fixed, free ones are estimated.
@@ -543,6 +545,13 @@ def gmwm(
     GMWMResult
         (an :class:`~stochmod.fit.indirect.IndirectGMWMResult` when a component is simulated)
     """
+    from stochmod.fit.pooled import gmwm_replicates, is_replicates
+
+    if is_replicates(data):  # replicates: one model from their pooled wavelet variance
+        return gmwm_replicates(data, model, freq, weighting=weighting, levels=levels, wavelet=wavelet,
+                               n_starts=n_starts, n_random=n_random, starts=starts,
+                               bootstrap_reps=bootstrap_reps, rng=rng, alpha=alpha, binding=binding,
+                               R=R, max_sim=max_sim)
     custom = None
     if not isinstance(weighting, str):
         custom, weighting = np.array(weighting, dtype=np.float64), "custom"

@@ -595,9 +595,11 @@ def select(
 
     Parameters
     ----------
-    x : array_like, shape (N,) or (N, k), or Recording
+    x : array_like, shape (N,) or (N, k), or Recording, or list of 1-D arrays
         Static error signal(s), unit u (rad/s, m/s^2 ...); a 2-D array holds one axis per
-        column (e.g. 6 IMU axes) and gives one selection per column.
+        column (e.g. 6 IMU axes) and gives one selection per column; a list of 1-D arrays
+        holds replicate recordings of one sensor model and gives one selection on their
+        pooled wavelet variance (:mod:`stochmod.fit.pooled`).
     freq : float
         Sampling frequency, Hz (taken from a Recording when it records it).
     candidates : sequence of spec, optional
@@ -637,6 +639,13 @@ def select(
     if weighting not in SELECTION_WEIGHTINGS:
         raise InputError(f"unknown or unusable weighting {weighting!r} for selection; choose one "
                          f"of {list(SELECTION_WEIGHTINGS)} (one Omega must serve every candidate)")
+    from stochmod.fit.pooled import is_replicates, select_replicates
+
+    if is_replicates(x):  # replicates of one sensor model: one selection on their pooled WV
+        return select_replicates(x, freq, candidates=candidates, families=families,
+                                 max_counts=max_counts, criterion=criterion, weighting=weighting,
+                                 executor=executor, progress=progress, rng=rng, levels=levels,
+                                 names=names)
     crit = _criteria.get_criterion(criterion)
     seed = _base_seed(rng)
     if levels is not None:
