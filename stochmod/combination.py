@@ -29,6 +29,8 @@ __all__ = [
     "as_sensor_array",
     "combine",
     "residuals_from_mean",
+    "check_combination",
+    "synthetic_wv",
     "WEIGHT_TOLERANCE",
 ]
 
@@ -172,6 +174,29 @@ class CombinationResult:
         for fit in self.sensors:
             text += "\n\n" + fit.summary()
         return text
+
+
+def synthetic_wv(models: Sequence[Any], weights: ArrayLike, levels: int) -> np.ndarray:
+    """Predicted Haar wavelet variance of a synthetic signal from its members' models, u^2.
+
+    For independent sensors with static weights ``w_i`` (summing to 1), the synthetic error
+    ``sum_i w_i e_i`` has ``nu(tau_j) = sum_i w_i^2 nu_i(tau_j)`` at levels ``j = 1..levels``.
+
+    Parameters
+    ----------
+    models : sequence of Model
+        Each member's fitted model, bound to the common sampling frequency.
+    weights : array_like, shape (n,)
+        The static weights.
+    levels : int
+        Number of levels J.
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    if w.shape != (len(models),):
+        raise InputError(f"weights must have shape ({len(models)},), got {w.shape}")
+    if not abs(w.sum() - 1.0) <= WEIGHT_TOLERANCE or np.any(~np.isfinite(w)):
+        raise InputError(f"weights must be finite and sum to 1, got {w}")
+    return np.sum([wi * wi * m.wv(levels) for wi, m in zip(w, models)], axis=0)
 
 
 def check_combination(result: Any, x: np.ndarray, method: str) -> CombinationResult:
