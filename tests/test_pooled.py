@@ -117,3 +117,26 @@ def test_adis16405_replicates() -> None:
     # pooling two replicates narrows the white-noise interval
     wn = [i for i, n in enumerate(pool.free_names) if n.startswith("WN")][0]
     assert pool.std_errors[wn] < one.std_errors[wn]
+
+
+@pytest.mark.slow
+def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
+    from stochmod.cli import main
+
+    xs = replicates(TRUE, 2, n=2**14, seed=30)
+    files = []
+    for k, x in enumerate(xs):
+        files.append(str(tmp_path / f"rep{k}.npz"))
+        np.savez(files[-1], gyro_x=x, freq=FREQ)
+    out = tmp_path / "cal"
+    argv = ["calibrate", *files, "--pooled", "--candidates", "WN", "GM+WN", "--out", str(out), "--json"]
+    assert main(argv) == 0
+    report = __import__("json").loads(capsys.readouterr().out)
+    assert report["replicates"]["n"] == [2**14, 2**14]
+    test = report["replicates"]["equality_test"]["gyro_x"]
+    ref = pooled_wvar(xs, FREQ).test  # raw eq. 17 covariances: close to the CLI's decoupled ones
+    assert test["dof"] == ref.dof and test["pvalue"] > 0.01
+    direct = stochmod.select(xs, FREQ, candidates=["WN", "GM+WN"])
+    assert report["columns"]["gyro_x"]["name"] == direct.best.model.name == "GM+WN"
+    assert main(["calibrate", *files, "--out", str(out)]) == 2
+    assert "add --pooled" in capsys.readouterr().err
