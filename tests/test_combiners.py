@@ -20,6 +20,7 @@ import pytest
 import stochmod
 from stochmod.combination import CombinationResult, as_sensor_array
 from stochmod.errors import EstimationError, InputError, StochmodError
+from stochmod.examples_redundant import redundant_gyros
 from stochmod.reporting import format_table
 from stochmod.testing import check_combiner
 
@@ -237,28 +238,12 @@ def test_inverse_variance_from_models_and_calibrations() -> None:
         stochmod.combine(x, "inverse-variance", models=models[:2])
 
 
-def redundant_array(a: float, length: int = 20_000, seed: int = 13) -> tuple[np.ndarray, np.ndarray]:
-    """4 gyros around a known rate: sensor 0 perturbed as eq. 13 (amplitude a), sensor 1 noisier,
-    sensor 2 biased, all with noise modulated in time (rad/s)."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(length) / 100.0
-    truth = 0.5 * np.sin(2 * np.pi * 0.05 * t)
-    modulation = 1.0 + 0.5 * np.sin(2 * np.pi * t / t[-1] * 2.0)
-    sigma = np.array([0.01, 0.03, 0.01, 0.01])
-    bias = np.array([0.0, 0.0, 0.02, 0.0])
-    noise = sigma[:, None] * modulation * rng.standard_normal((4, length))
-    x = truth + bias[:, None] + noise
-    # eq. 13: W ~ a N(0, var[omega_1]), modulated by sin(6 pi t / t_max)
-    x[0] += np.sin(6 * np.pi * t / t[-1]) * a * np.std(noise[0]) * rng.standard_normal(length)
-    return x, truth
-
-
 @pytest.mark.slow
 def test_garch_weighting_keeps_the_error_flat_as_the_perturbation_grows() -> None:
     """The shape of Table 4: the weighted synthetic barely moves with a, the mean's error grows."""
     rows, std = [], {}
     for a in (0, 5, 10):
-        x, truth = redundant_array(a)
+        x, truth = redundant_gyros(a)
         for name in FIRST_PARTY:
             res = stochmod.combine(x, name)
             err = res.signal - truth
@@ -277,7 +262,7 @@ def test_garch_weighting_keeps_the_error_flat_as_the_perturbation_grows() -> Non
 
 
 def test_result_summary_and_bad_input() -> None:
-    x, _ = redundant_array(5.0, length=3000)
+    x, _ = redundant_gyros(5.0, length=3000)
     res = stochmod.combine(x, "garch", **FAST_GARCH)
     text = res.summary()
     assert "garch" in text and "GARCH(1,1)" in text and "ARMA(1,0)" in text and "sensor 3" in text

@@ -18,13 +18,12 @@ import math
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
 from scipy.signal import lfilter
 
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_positive_int
 from stochmod.errors import EstimationError, InputError
-from stochmod.reporting import format_table
+from stochmod.signal._estimates import EstimatesMixin
 
 __all__ = ["ArmaFit", "fit_arma", "select_arma", "arma_innovations"]
 
@@ -99,7 +98,7 @@ def _hannan_rissanen(x: np.ndarray, p: int, q: int) -> np.ndarray:
 
 
 @attrs.frozen
-class ArmaFit:
+class ArmaFit(EstimatesMixin):
     """An ARMA(p, q) fitted by conditional Gaussian maximum likelihood.
 
     Attributes
@@ -147,20 +146,6 @@ class ArmaFit:
         return ("nu", *(f"ar{i}" for i in range(1, p + 1)), *(f"ma{j}" for j in range(1, q + 1)))
 
     @property
-    def std_errors(self) -> np.ndarray:
-        """Standard errors (eq. 11)."""
-        return np.sqrt(np.maximum(np.diag(self.cov_params), 0.0))
-
-    @property
-    def tvalues(self) -> np.ndarray:
-        return self.params / self.std_errors
-
-    @property
-    def pvalues(self) -> np.ndarray:
-        """Two-sided Student p-values (Table 1)."""
-        return 2.0 * stats.t.sf(np.abs(self.tvalues), df=max(self.n - self.params.size, 1))
-
-    @property
     def aic(self) -> float:
         """``-2 loglik + 2 (p + q + 2)`` (nu and sigma2 included)."""
         return -2.0 * self.loglikelihood + 2.0 * (self.params.size + 1)
@@ -180,12 +165,9 @@ class ArmaFit:
     def summary(self) -> str:
         """Estimates, standard errors, t- and p-values (Table 1)."""
         p, q = self.order
-        rows = [[nm, v, se, t, pv] for nm, v, se, t, pv in
-                zip(self.param_names, self.params, self.std_errors, self.tvalues, self.pvalues)]
-        title = (f"ARMA({p},{q}) by conditional Gaussian ML, {self.n} innovations: sigma2 "
-                 f"{self.sigma2:.6g}, loglik {self.loglikelihood:.6f}, AIC {self.aic:.6f}")
-        return format_table(["parameter", "estimate", "std error", "t-value", "p-value"], rows,
-                            title=title, digits=4)
+        return self.estimates_table(
+            f"ARMA({p},{q}) by conditional Gaussian ML, {self.n} innovations: sigma2 "
+            f"{self.sigma2:.6g}, loglik {self.loglikelihood:.6f}, AIC {self.aic:.6f}")
 
 
 def arma_innovations(x: ArrayLike, nu: float, ar: ArrayLike, ma: ArrayLike) -> np.ndarray:

@@ -28,13 +28,12 @@ from typing import Any
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
 from scipy.signal import lfilter, lfiltic
 
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_alpha, check_positive_int
 from stochmod.errors import EstimationError, InputError
-from stochmod.reporting import format_table
+from stochmod.signal._estimates import EstimatesMixin
 from stochmod.signal.arch_lm import ArchLMTest, arch_lm_test
 
 __all__ = ["GarchFit", "fit_garch", "garch_loglikelihood", "garch_variance", "select_garch",
@@ -247,7 +246,7 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
 
 
 @attrs.frozen
-class GarchFit:
+class GarchFit(EstimatesMixin):
     """A zero-mean GARCH(p, q) fitted by Gaussian maximum likelihood.
 
     Attributes
@@ -305,21 +304,6 @@ class GarchFit:
         return ("alpha0", *(f"alpha{i}" for i in range(1, p + 1)), *(f"beta{j}" for j in range(1, q + 1)))
 
     @property
-    def std_errors(self) -> np.ndarray:
-        """Standard errors from the inverse information matrix (eq. 8)."""
-        return np.sqrt(np.maximum(np.diag(self.cov_params), 0.0))
-
-    @property
-    def tvalues(self) -> np.ndarray:
-        """``estimate / standard error`` (Tables 1-2)."""
-        return self.params / self.std_errors
-
-    @property
-    def pvalues(self) -> np.ndarray:
-        """Two-sided p-values of the t-tests (Student, T - k degrees of freedom)."""
-        return 2.0 * stats.t.sf(np.abs(self.tvalues), df=max(self.n - self.params.size, 1))
-
-    @property
     def persistence(self) -> float:
         """``sum alpha + sum beta`` (< 1)."""
         return float(self.alpha.sum() + self.beta.sum())
@@ -337,13 +321,10 @@ class GarchFit:
     def summary(self) -> str:
         """Table of estimates, standard errors, t- and p-values (as Tables 1-2), and the LM test."""
         p, q = self.order
-        rows = [[name, v, se, t, pv] for name, v, se, t, pv in
-                zip(self.param_names, self.params, self.std_errors, self.tvalues, self.pvalues)]
-        title = (f"GARCH({p},{q}) by Gaussian ML, T = {self.n}: loglik {self.loglikelihood:.6f}, "
-                 f"persistence {self.persistence:.6g}, "
-                 f"{'converged' if self.converged else 'NOT converged'} in {self.n_iter} iterations")
-        text = format_table(["parameter", "estimate", "std error", "t-value", "p-value"], rows,
-                            title=title, digits=4)
+        text = self.estimates_table(
+            f"GARCH({p},{q}) by Gaussian ML, T = {self.n}: loglik {self.loglikelihood:.6f}, "
+            f"persistence {self.persistence:.6g}, "
+            f"{'converged' if self.converged else 'NOT converged'} in {self.n_iter} iterations")
         return text + "\n" + self.lm_test.summary()
 
 
