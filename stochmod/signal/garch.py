@@ -43,6 +43,7 @@ _LOG_2PI = math.log(2.0 * math.pi)
 _BACKCAST_DECAY = 0.94
 _BACKCAST_SAMPLES = 75
 _GRID_SAMPLES = 100_000
+_PREFIX_SAMPLES = 200_000
 
 
 def backcast(x2: np.ndarray) -> float:
@@ -380,7 +381,13 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
         if not theta0[1:].sum() < 1 or np.any(theta0[1:] <= 0):
             raise InputError("start must have alpha, beta > 0 and sum(alpha) + sum(beta) < 1")
         theta0[0] /= scale**2
-    theta, n_iter, converged = _maximise(lik, theta0, check_positive_int(max_iter, name="max_iter"), tol)
+    max_iter = check_positive_int(max_iter, name="max_iter")
+    if start is None and y.size > 4 * _PREFIX_SAMPLES:
+        # converge on a prefix first (its scoring steps are cheap); the whole record then
+        # needs only a few steps from there
+        prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
+        theta0 = _maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0]
+    theta, n_iter, converged = _maximise(lik, theta0, max_iter, tol)
     ll, _, info, s2 = lik.full(theta)
     try:
         cov = np.linalg.inv(info)
