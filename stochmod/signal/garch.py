@@ -141,8 +141,10 @@ def _to_theta(z: np.ndarray) -> np.ndarray:
 
 
 def _from_theta(theta: np.ndarray) -> np.ndarray:
-    slack = 1.0 - theta[1:].sum()
-    return np.concatenate([[math.log(theta[0])], np.log(theta[1:]) - math.log(slack)])
+    """Inverse of :func:`_to_theta`; a share that underflowed to 0 maps to a very negative logit."""
+    tiny = np.finfo(np.float64).tiny
+    slack = max(1.0 - theta[1:].sum(), tiny)
+    return np.concatenate([[math.log(theta[0])], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
 
 
 def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
