@@ -139,6 +139,7 @@ def test_standard_errors_match_the_monte_carlo_spread() -> None:
     assert np.all((ratio > 0.65) & (ratio < 1.35)), ratio
 
 
+@pytest.mark.filterwarnings("ignore")  # arch warns that its own optimiser stopped early
 def test_loglik_at_least_arch_s() -> None:
     arch_model = pytest.importorskip("arch", reason="arch (test extra) is the peer").arch_model
     x = simulate_garch(50_000, 1.3e-7, [0.0175], [0.98], seed=11)
