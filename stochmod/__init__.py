@@ -23,7 +23,18 @@ from stochmod.hookspecs import hookimpl, hookspec
 from stochmod.model import Model, augment_axes, model_from_spec
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator, has_theoretical_wv
-from stochmod.registry import get_process, process_names, register_plugin, unregister_plugin
+from stochmod.registry import (
+    combiner_names,
+    get_combiner,
+    get_process,
+    process_names,
+    register_plugin,
+    unregister_plugin,
+)
+from stochmod.combination import CombinationResult, combine
+from stochmod.signal.arma import ArmaFit, fit_arma, select_arma
+from stochmod.signal.arch_lm import ArchLMTest, arch_lm_test
+from stochmod.signal.garch import GarchFit, fit_garch, select_garch
 from stochmod.fit.gmwm import GMWMResult, gmwm
 from stochmod.fit.selection import SelectionResult, candidate_lattice, select
 from stochmod.fit.validation import OctavePSD, ValidationBands, octave_psd, validate
@@ -108,6 +119,18 @@ __all__ = [
     "UnknownProcessError",
     "EstimationError",
     "AccuracyWarning",
+    "combine",
+    "CombinationResult",
+    "combiner_names",
+    "get_combiner",
+    "fit_garch",
+    "select_garch",
+    "GarchFit",
+    "fit_arma",
+    "select_arma",
+    "ArmaFit",
+    "arch_lm_test",
+    "ArchLMTest",
 ]
 
 

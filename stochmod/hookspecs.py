@@ -47,6 +47,31 @@ class StochmodSpec:
         weightings but combiners.)"""
 
     @hookspec
+    def stochmod_combiners(self) -> list[Any]:
+        """Return redundant-sensor combiners (objects; see :class:`stochmod.combination.Combiner`).
+
+        A combiner fuses ``n`` time-aligned recordings of the same quantity into one synthetic
+        signal. It carries
+
+        - ``name`` (str): unique registry key, e.g. ``"mean"`` or ``"garch"``;
+        - ``description`` (str): one line for listings (``stochmod combiners``);
+        - ``assumes`` (str): what the method assumes of the sensors' errors (independence,
+          equal or constant variances, ...), reported with every result;
+        - ``combine(x, **options) -> CombinationResult``: `x` is a finite float64 array of shape
+          ``(n, T)`` (one axis from ``n`` sensors, ``T`` samples each, in the signal unit u) or
+          ``(n, T, 3)`` (triads); it returns a :class:`stochmod.combination.CombinationResult`
+          with the synthetic ``signal`` (shape ``x.shape[1:]``, u), the per-sample ``weights``
+          (shape of `x`, summing to 1 over the sensors at every sample) and the estimated
+          per-sample ``variance`` of the synthetic signal's error (shape ``x.shape[1:]``, u^2).
+          Bad input (NaN/inf, fewer sensors than the method needs, unknown options) raises a
+          :class:`stochmod.errors.StochmodError` subclass naming the problem.
+
+        :func:`stochmod.combine` finds a combiner by name; :func:`stochmod.testing.check_combiner`
+        checks one (weights sum to 1, equal inputs give the input back, permutation invariance,
+        scale equivariance, NaN refused).
+        """
+
+    @hookspec
     def stochmod_readers(self) -> list[Any]:
         """Return log-format readers, called by :func:`stochmod.io.read_recording`.
 

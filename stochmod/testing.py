@@ -46,6 +46,10 @@ The checks (names as in :data:`CHECKS`):
 ``wv_jacobian``
     ``wv_jacobian`` against Richardson-extrapolated central differences (rel 1e-5).
 
+Combiners (plugin point ``stochmod_combiners``) are checked by :func:`check_combiner`
+(see :mod:`stochmod.combiner_checks`): weights sum to 1, equal inputs give the input back,
+permutation invariance, scale equivariance, NaN/inf refused.
+
 Defaults are cheap (the whole kit takes a few seconds on one family); raise ``n_mc``, ``n``
 and ``max_examples`` for stronger runs. hypothesis is imported only by the checks that need it.
 """
@@ -62,6 +66,7 @@ import numpy as np
 from scipy import integrate
 
 from stochmod._validation import check_freq, check_positive_int
+from stochmod.combiner_checks import check_combiner
 from stochmod.errors import DomainError, InputError
 from stochmod.params import get_domain, pacf_to_ar
 from stochmod.process import Process, as_generator, simulate_block
@@ -88,6 +93,7 @@ __all__ = [
     "check_wv_jacobian",
     "check_weighting",
     "check_reader",
+    "check_combiner",
 ]
 
 

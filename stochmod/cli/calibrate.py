@@ -11,6 +11,7 @@ from typing import Any
 
 import attrs
 
+from stochmod._validation import check_freq
 from stochmod.cli._common import add_input_arguments, load_input, print_json, to_jsonable
 from stochmod.cli.select import add_selection_arguments, selection_options
 from stochmod.errors import EstimationError, InputError
@@ -53,6 +54,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--n-sim", type=int, default=20,
                    help="series simulated from each fit for the figures (default 20)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
+    p.add_argument("more_files", metavar="FILE", nargs="*",
+                   help="with --pooled: further replicate recordings of the same sensor model")
+    p.add_argument("--pooled", action="store_true",
+                   help="FILE FILE ...: replicates of one sensor model; fit one model per column "
+                        "from their pooled wavelet variance, and test whether they share it")
     p.set_defaults(func=run)
 
 
@@ -157,8 +163,65 @@ def _table(results: list[SelectionResult], rec: Recording, freq: float,
                          "J-test p"], rows, title=title)
 
 
+def _replicates(args: argparse.Namespace) -> tuple[list[Recording], float]:
+    """The replicate recordings of ``--pooled`` (same columns, same frequency)."""
+    from stochmod.io import read_recording
+
+    if args.file is None or not args.more_files:
+        raise InputError("--pooled needs two or more FILEs (replicates of one sensor model)")
+    recs = [read_recording(f, columns=args.column) for f in [args.file, *args.more_files]]
+    for rec in recs[1:]:
+        if rec.columns != recs[0].columns:
+            raise InputError(f"{rec.path} has columns {list(rec.columns)}, {recs[0].path} has "
+                             f"{list(recs[0].columns)}: replicates must share them (--column)")
+    freqs = {args.freq} if args.freq is not None else {r.freq for r in recs}
+    if None in freqs:
+        raise InputError("a replicate does not record its sampling frequency: pass --freq HZ")
+    if len(freqs) != 1:
+        raise InputError(f"the replicates have different sampling frequencies {sorted(freqs)}")
+    return recs, check_freq(freqs.pop(), name="--freq")
+
+
+def _run_pooled(args: argparse.Namespace) -> int:
+    """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
+    from stochmod.fit.pooled import pooled_wv
+
+    recs, freq = _replicates(args)
+    if not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    dt = 1.0 / freq if args.dt is None else args.dt
+    options = selection_options(args)
+    results, tests = [], {}
+    for k, column in enumerate(recs[0].columns):
+        xs = [rec.data[:, k] * args.scale for rec in recs]
+        results.append(select(xs, freq, names=[column], **options))
+        test = pooled_wv(xs, freq, options.get("levels")).test
+        tests[column] = None if test is None else attrs.asdict(test)
+    report = calibration_report(results, recs[0], freq, dt, args.scale)
+    report["replicates"] = {"files": [r.path for r in recs], "n": [int(r.data.shape[0]) for r in recs],
+                            "equality_test": tests}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "calibration.json"
+    path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
+    if args.json:
+        print_json(report)
+        return 0
+    print(_table(results, recs[0], freq, {}))
+    print(format_table(["column", "equality Q", "dof", "p-value"],
+                       [[c, t["statistic"], t["dof"], t["pvalue"]] if t else [c, "-", "-", "-"]
+                        for c, t in tests.items()],
+                       title=f"\nreplicates {', '.join(r.path for r in recs)}: do they share one model?"))
+    print(f"\nwrote {path}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Select, fit, report and write calibration.json (+ figures)."""
+    if args.pooled:
+        return _run_pooled(args)
+    if args.more_files:
+        raise InputError("several FILEs are replicates: add --pooled")
     rec, freq = _input(args)
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")

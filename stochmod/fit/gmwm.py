@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import attrs
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -22,6 +24,7 @@ from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import InputError, SpecError
 from stochmod.fit.engine import Problem, resolve_model, search
 from stochmod.fit.indirect import IndirectGMWMResult, plan_binding
+from stochmod.fit.pooled import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult, JTest, ParameterEstimate
 from stochmod.fit.weighting import check_weighting_matrix
 from stochmod.fit.weightings import WeightingInput, get_weighting
@@ -54,9 +57,12 @@ def gmwm(
 
     Parameters
     ----------
-    data : array_like or WaveletVariance
+    data : array_like, WaveletVariance or list of array_like
         The static error signal (unit u, mean removed or not: the Haar WV ignores the mean),
-        or a precomputed empirical wavelet variance.
+        or a precomputed empirical wavelet variance, or a list of replicate signals of one
+        sensor model (:mod:`stochmod.fit.pooled`: their pooled WV is matched, the weighting
+        and the inference use its covariance, and ``result.pooled`` holds the pooling and the
+        equality test).
     model : Model, Process, str or dict
         The composite model (``"2*GM+WN"``, ``GM() + WN()`` ...); parameters with values are
         held fixed, free ones are estimated.
@@ -107,7 +113,12 @@ def gmwm(
         custom, weighting = np.array(weighting, dtype=np.float64), "custom"
     else:
         scheme = get_weighting(weighting)
-    signal = None
+    signal, pooled = None, None
+    if is_replicates(data):  # replicates: one model from their pooled wavelet variance
+        if freq is None:
+            raise InputError("freq (Hz) is required when data is a list of signals")
+        pooled = pooled_wv(data, check_freq(freq), levels, wavelet)
+        data = pooled.wv
     if isinstance(data, WaveletVariance):
         emp = data
         freq = emp.freq if freq is None else check_freq(freq)
@@ -147,7 +158,8 @@ def gmwm(
         omega = check_weighting_matrix(custom, J)
         omega = 0.5 * (omega + omega.T)
     else:
-        if scheme.needs_signal and signal is None:
+        known = None if pooled is None else pooled.covariance
+        if scheme.needs_signal and signal is None and known is None:
             raise InputError(f"weighting={weighting!r} needs the signal, not only its wavelet variance")
         pilot = None
         if scheme.needs_fit:  # a first diagonal fit, whose model also starts the final search
@@ -155,16 +167,21 @@ def gmwm(
                          n_random=n_random, starts=starts, rng=rng, binding=binding, R=R,
                          max_sim=max_sim)
             starts = (*starts, pilot.model)
-        made = scheme.matrix(WeightingInput(emp, J, signal, pilot, seed=rng, reps=bootstrap_reps))
+        made = scheme.matrix(WeightingInput(emp, J, signal, pilot, seed=rng, reps=bootstrap_reps,
+                                            covariance=known))
         omega = check_weighting_matrix(made.omega, J, source=f"weighting {weighting!r}'s matrix")
         covariance = made.covariance
 
+    if pooled is not None and covariance is None:
+        covariance = pooled.covariance[:J, :J]
     found = search(base, nu_hat, omega, mask, n_starts, n_random, starts, rng,
                    problem_factory=Problem if plan is None else plan.problem)
     if plan is None:
-        return GMWMResult.from_search(
+        result = GMWMResult.from_search(
             found, empirical=emp, omega=omega, weighting=weighting, levels=J, mask=mask,
             alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng)
-    return IndirectGMWMResult.from_search(
-        found, empirical=emp, omega=omega, weighting=weighting, levels=J, mask=mask,
-        alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng, binding=plan.finished())
+    else:
+        result = IndirectGMWMResult.from_search(
+            found, empirical=emp, omega=omega, weighting=weighting, levels=J, mask=mask,
+            alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng, binding=plan.finished())
+    return result if pooled is None else attrs.evolve(result, pooled=pooled)

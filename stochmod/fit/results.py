@@ -28,6 +28,7 @@ from stochmod.fit.weighting import bootstrap_covariance, chi2_variance, data_cov
 from stochmod.model import Model
 from stochmod.process import Process
 from stochmod.reporting import format_table
+from stochmod.signal.pooled import PooledWaveletVariance
 from stochmod.signal.wavelet_variance import WaveletVariance
 
 __all__ = ["GMWMResult", "JTest", "ParameterEstimate", "Binding", "negligible_components",
@@ -141,6 +142,9 @@ class GMWMResult:
         Seed of the parametric bootstrap of V when only a WV was given.
     binding : Binding or None
         The binding function when it is not the model's theoretical WV (indirect inference).
+    pooled : PooledWaveletVariance or None
+        The pooling of replicate recordings when the fit matched their pooled WV (its
+        ``test`` says whether they share one WV).
     """
 
     model: Model
@@ -161,6 +165,7 @@ class GMWMResult:
     null_covariance: np.ndarray | None = attrs.field(default=None, repr=False)
     rng_seed: int = 0
     binding: Binding | None = attrs.field(default=None, repr=False)
+    pooled: PooledWaveletVariance | None = attrs.field(default=None, repr=False)
 
     @classmethod
     def from_search(cls, found: SearchResult, *, empirical: WaveletVariance, omega: np.ndarray,

@@ -36,6 +36,7 @@ from stochmod._validation import as_signals, check_freq, check_positive_int
 from stochmod.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit import criteria as _criteria
 from stochmod.fit.engine import Problem, SearchResult, refine, search
+from stochmod.fit.pooled import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import check_weighting_matrix, data_covariance
 from stochmod.fit.weightings import WeightingInput, get_weighting, weighting_names
@@ -207,18 +208,24 @@ class _Task:
         return not (self.starts or self.screen)
 
 
+def _column(emp: WaveletVariance, x: np.ndarray | None, scheme: Any, seed: int,
+            covariance: np.ndarray | None = None) -> _Column:
+    """The shared part of one column's fits from its empirical WV (and signal `x`, or the WV's
+    known `covariance`)."""
+    J = emp.wv.size
+    if np.any(emp.wv <= 0):
+        raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
+    made = scheme.matrix(WeightingInput(emp, J, x, seed=seed, covariance=covariance))
+    omega = check_weighting_matrix(made.omega, J, source=f"weighting {scheme.name!r}'s matrix")
+    return _Column(emp, omega, covariance if covariance is not None else made.covariance)
+
+
 def _prepare(item: tuple[np.ndarray, float, int | None, Any, int]) -> _Column:
     """Empirical WV and weighting matrix of one signal (with V when the weighting inverts it,
     e.g. eq. 17 for the optimal weighting). The weighting object travels with the item, so a
     weighting registered at run time works in worker processes too."""
     x, freq, levels, scheme, seed = item
-    emp = wvar(x, freq, levels=levels)
-    J = emp.wv.size
-    if np.any(emp.wv <= 0):
-        raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
-    made = scheme.matrix(WeightingInput(emp, J, x, seed=seed))
-    omega = check_weighting_matrix(made.omega, J, source=f"weighting {scheme.name!r}'s matrix")
-    return _Column(emp, omega, made.covariance)
+    return _column(wvar(x, freq, levels=levels), x, scheme, seed)
 
 
 def _covariance(item: tuple[np.ndarray, WaveletVariance, int]) -> np.ndarray:
@@ -589,9 +596,11 @@ def select(
 
     Parameters
     ----------
-    x : array_like, shape (N,) or (N, k), or Recording
+    x : array_like, shape (N,) or (N, k), Recording, or list of array_like
         Static error signal(s), unit u (rad/s, m/s^2 ...); a 2-D array holds one axis per
-        column (e.g. 6 IMU axes) and gives one selection per column.
+        column (e.g. 6 IMU axes) and gives one selection per column; a list of 1-D signals
+        holds replicates of one sensor model and gives one selection on their pooled WV
+        (:mod:`stochmod.fit.pooled`).
     freq : float
         Sampling frequency, Hz (taken from a Recording when it records it).
     candidates : sequence of spec, optional
@@ -638,7 +647,19 @@ def select(
     seed = _base_seed(rng)
     if levels is not None:
         levels = check_positive_int(levels, name="levels", minimum=1)
-    data, freq, cols, single = _signals(x, freq, names)
+    prepared: list[_Column] | None = None
+    if is_replicates(x):  # replicates of one sensor model: one selection on their pooled WV
+        if freq is None:
+            raise InputError("freq (Hz) is required when x is a list of signals")
+        freq = check_freq(freq)
+        pooled = pooled_wv(x, freq, levels)
+        cols = ["pooled"] if names is None else [str(n) for n in names]
+        if len(cols) != 1:
+            raise InputError(f"names has {len(cols)} entries for one pooled column")
+        data, single = None, True
+        prepared = [_column(pooled.wv, None, scheme, seed, pooled.covariance)]
+    else:
+        data, freq, cols, single = _signals(x, freq, names)
     if max_counts is None and candidates is None:
         max_counts = {"GM": 3} if "GM" in families else {}
     models = _as_candidates(candidates, families, max_counts)
@@ -650,8 +671,8 @@ def select(
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
-        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed))
-                                       for k in range(len(cols))]]
+        shared = prepared or [f.result() for f in [
+            pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed)) for k in range(len(cols))]]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():
             free = int(node["model"].free_mask().sum())

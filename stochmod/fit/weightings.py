@@ -78,6 +78,10 @@ class WeightingInput:
         Seed of any random choice (results reproduce).
     reps : int
         Monte Carlo replications a simulation-based weighting may use.
+    covariance : ndarray or None
+        The covariance V of the empirical WV (J x J, unit^4) when it is known without the
+        signal, e.g. propagated from replicates (:mod:`stochmod.fit.pooled`); a weighting that
+        inverts V uses it instead of estimating V from the signal.
     """
 
     empirical: WaveletVariance
@@ -86,6 +90,7 @@ class WeightingInput:
     pilot: GMWMResult | None = attrs.field(default=None, repr=False)
     seed: int = 0
     reps: int = 100
+    covariance: np.ndarray | None = attrs.field(default=None, repr=False)
 
     @property
     def wv(self) -> np.ndarray:
@@ -180,7 +185,9 @@ class OptimalWeighting(InverseCovarianceWeighting):
     needs_signal: ClassVar[bool] = True
 
     def covariance(self, data: WeightingInput) -> np.ndarray:
-        """Eq. 17 on the signal."""
+        """The known covariance of the WV when given (replicates), else eq. 17 on the signal."""
+        if data.covariance is not None:
+            return np.asarray(data.covariance, float)[: data.levels, : data.levels]
         return data_covariance(data.require("signal", self.name), data.empirical, data.levels)
 
 

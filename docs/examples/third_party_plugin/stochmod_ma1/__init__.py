@@ -12,7 +12,7 @@ registers it), or register it at run time with ``stochmod.register_plugin(stochm
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
@@ -24,7 +24,7 @@ from stochmod_ma1.jsonl import JsonLinesReader
 from stochmod_ma1.weighting import RELATIVE, RelativeWeighting, stochmod_weightings
 
 __all__ = ["MA1", "stochmod_processes", "RelativeWeighting", "RELATIVE", "stochmod_weightings",
-           "JsonLinesReader", "stochmod_readers"]
+           "JsonLinesReader", "stochmod_readers", "stochmod_combiners"]
 
 __version__ = "0.1.0"
 
@@ -171,3 +171,11 @@ def stochmod_processes() -> list[type[stochmod.Process]]:
 def stochmod_readers() -> list[JsonLinesReader]:
     """Register the JSON Lines reader (a log format, see jsonl.py)."""
     return [JsonLinesReader()]
+
+
+@stochmod.hookimpl
+def stochmod_combiners() -> list[Any]:
+    """Register the median combiner (a second plugin point served by the same package)."""
+    from stochmod_ma1.median import MedianCombiner
+
+    return [MedianCombiner()]

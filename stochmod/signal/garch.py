@@ -1,0 +1,432 @@
+"""Zero-mean GARCH(p, q) volatility by Gaussian maximum likelihood (Waegli et al. 2010, eqs. 7-9).
+
+Model (eq. 7): ``x_t = sigma_t Z_t``, ``Z_t ~ N(0, 1)`` i.i.d., and
+
+    sigma_t^2 = omega + sum_{i=1}^p alpha_i x_{t-i}^2 + sum_{j=1}^q beta_j sigma_{t-j}^2,
+
+with ``omega > 0``, ``alpha_i, beta_j >= 0`` and ``sum alpha + sum beta < 1`` (covariance
+stationary). Pre-sample values of ``x^2`` and ``sigma^2`` are the exponentially weighted
+backcast ``sum_k w_k x_k^2``, ``w_k`` proportional to ``0.94^k`` over the first
+``min(75, T)`` samples (the convention of the ``arch`` package, so that log-likelihoods compare).
+
+The variance recursion is a first-order-in-``sigma^2`` IIR filter of ``x^2``: one
+:func:`scipy.signal.lfilter` call gives every ``sigma_t^2`` exactly, and the derivatives of
+``sigma_t^2`` with respect to the parameters obey the same recursion (one more filter call
+for all of them), so the log-likelihood, its analytic gradient and the expected (Fisher)
+information ``J = 1/2 sum_t (d sigma_t^2)(d sigma_t^2)^T / sigma_t^4`` (eq. 9) are vectorised.
+The maximum is found by Fisher scoring with Levenberg damping in unconstrained coordinates
+(``log omega``; ``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from
+the best point of a grid. The data are scaled to unit mean square inside, so IMU-scale inputs
+(variances of 1e-8 u^2 and below) are handled as given; results are reported in the input's unit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import attrs
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.signal import lfilter, lfiltic
+
+from stochmod._fields import array_field
+from stochmod._validation import as_signal, check_alpha, check_positive_int
+from stochmod.errors import EstimationError, InputError
+from stochmod.signal._estimates import EstimatesMixin
+from stochmod.signal.arch_lm import ArchLMTest, arch_lm_test
+
+__all__ = ["GarchFit", "fit_garch", "garch_loglikelihood", "garch_variance", "select_garch",
+           "backcast"]
+
+_LOG_2PI = math.log(2.0 * math.pi)
+_BACKCAST_DECAY = 0.94
+_BACKCAST_SAMPLES = 75
+_GRID_SAMPLES = 100_000
+_PREFIX_SAMPLES = 200_000
+
+
+def backcast(x2: np.ndarray) -> float:
+    """Pre-sample value of ``x^2`` and ``sigma^2``: ``sum_k w_k x2_k``, ``w_k ~ 0.94^k``, k < 75."""
+    tau = min(_BACKCAST_SAMPLES, x2.size)
+    w = _BACKCAST_DECAY ** np.arange(tau)
+    return float(np.dot(w / w.sum(), x2[:tau]))
+
+
+def _lagged(series: np.ndarray, lag: int, pre: float) -> np.ndarray:
+    """``series[t - lag]`` with the pre-sample value `pre` for ``t < lag``."""
+    out = np.empty_like(series)
+    out[:lag] = pre
+    out[lag:] = series[:-lag]
+    return out
+
+
+def _recursion(omega: float, alpha: np.ndarray, beta: np.ndarray, x2: np.ndarray,
+               bc: float) -> np.ndarray:
+    """``sigma_t^2`` of eq. 7 for every t (one IIR filter)."""
+    u = np.full_like(x2, omega)
+    for i, a in enumerate(alpha, start=1):
+        u += a * _lagged(x2, i, bc)
+    den = np.concatenate([[1.0], -beta])
+    if beta.size == 0:
+        return u
+    zi = lfiltic([1.0], den, np.full(beta.size, bc))
+    return lfilter([1.0], den, u, zi=zi)[0]
+
+
+def _derivatives(alpha: np.ndarray, beta: np.ndarray, x2: np.ndarray, s2: np.ndarray,
+                 bc: float) -> np.ndarray:
+    """``d sigma_t^2 / d (omega, alpha, beta)``, shape (1 + p + q, T) (zero pre-sample)."""
+    p, q = alpha.size, beta.size
+    drive = np.empty((1 + p + q, x2.size))
+    drive[0] = 1.0
+    for i in range(1, p + 1):
+        drive[i] = _lagged(x2, i, bc)
+    for j in range(1, q + 1):
+        drive[p + j] = _lagged(s2, j, bc)
+    if q == 0:
+        return drive
+    return lfilter([1.0], np.concatenate([[1.0], -beta]), drive, axis=1)
+
+
+def _loglik(s2: np.ndarray, x2: np.ndarray) -> float:
+    return -0.5 * float(x2.size * _LOG_2PI + np.sum(np.log(s2)) + np.sum(x2 / s2))
+
+
+def _split(theta: np.ndarray, p: int) -> tuple[float, np.ndarray, np.ndarray]:
+    return float(theta[0]), theta[1 : 1 + p], theta[1 + p :]
+
+
+def _check_theta(omega: float, alpha: np.ndarray, beta: np.ndarray) -> None:
+    if not (np.isfinite(omega) and omega > 0):
+        raise InputError(f"GARCH omega must be positive and finite, got {omega}")
+    if np.any(~np.isfinite(alpha)) or np.any(alpha < 0) or np.any(~np.isfinite(beta)) or np.any(beta < 0):
+        raise InputError(f"GARCH alpha and beta must be finite and >= 0, got {alpha}, {beta}")
+
+
+def garch_variance(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
+    """Conditional variances ``sigma_t^2`` of eq. 7 for the data `x` (unit u, result u^2).
+
+    Parameters
+    ----------
+    x : array_like, shape (T,)
+        Zero-mean residuals.
+    omega : float
+        Constant, u^2 (> 0).
+    alpha, beta : array_like
+        ARCH coefficients on ``x_{t-i}^2`` (length p) and GARCH coefficients on
+        ``sigma_{t-j}^2`` (length q), all >= 0.
+    """
+    x = as_signal(x, name="x")
+    a = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
+    b = np.atleast_1d(np.asarray(beta, dtype=np.float64))
+    _check_theta(float(omega), a, b)
+    x2 = x * x
+    return _recursion(float(omega), a, b, x2, backcast(x2))
+
+
+def garch_loglikelihood(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike) -> float:
+    """Gaussian log-likelihood (nats) of `x` under GARCH(p, q) with these parameters."""
+    x = as_signal(x, name="x")
+    return _loglik(garch_variance(x, omega, alpha, beta), x * x)
+
+
+# ------------------------------------------------------------------ unconstrained coordinates
+def _to_theta(z: np.ndarray) -> np.ndarray:
+    """``(log omega, logits)`` -> ``(omega, alpha..., beta...)``; the slack has logit 0."""
+    logits = np.concatenate([z[1:], [0.0]])
+    e = np.exp(logits - logits.max())
+    share = e / e.sum()
+    return np.concatenate([[math.exp(z[0])], share[:-1]])
+
+
+def _from_theta(theta: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`_to_theta`; a share that underflowed to 0 maps to a very negative logit."""
+    tiny = np.finfo(np.float64).tiny
+    slack = max(1.0 - theta[1:].sum(), tiny)
+    return np.concatenate([[math.log(theta[0])], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
+
+
+def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``d theta / d z``, shape (k, k)."""
+    k = theta.size
+    jac = np.zeros((k, k))
+    jac[0, 0] = theta[0]
+    share = theta[1:]
+    jac[1:, 1:] = np.diag(share) - np.outer(share, share)
+    return jac
+
+
+class _Likelihood:
+    """Log-likelihood, score and Fisher information of scaled data (unit mean square)."""
+
+    def __init__(self, y: np.ndarray, p: int, q: int):
+        self.x2 = y * y
+        self.bc = backcast(self.x2)
+        self.p, self.q = p, q
+
+    def value(self, theta: np.ndarray) -> float:
+        omega, alpha, beta = _split(theta, self.p)
+        s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
+        if not np.all(s2 > 0) or not np.all(np.isfinite(s2)):
+            return -math.inf
+        return _loglik(s2, self.x2)
+
+    def full(self, theta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """Log-likelihood, score (k,), expected information (k, k) and sigma^2 (T,)."""
+        omega, alpha, beta = _split(theta, self.p)
+        s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
+        ds2 = _derivatives(alpha, beta, self.x2, s2, self.bc)
+        inv = 1.0 / s2
+        ratio = self.x2 * inv
+        ds2 *= inv
+        score = -0.5 * (ds2 @ (1.0 - ratio))
+        info = 0.5 * (ds2 @ ds2.T)
+        ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
+        return ll, score, info, s2
+
+
+def _grid_start(lik: _Likelihood, p: int, q: int) -> np.ndarray:
+    """The best of a grid of (total alpha, persistence) with variance targeting (mean y^2 = 1).
+
+    The grid is screened on the first ``_GRID_SAMPLES`` samples (it only picks a start).
+    """
+    if lik.x2.size > _GRID_SAMPLES:
+        lik = _Likelihood(np.sqrt(lik.x2[:_GRID_SAMPLES]), p, q)
+    best, best_ll = None, -math.inf
+    for a_tot in (0.02, 0.05, 0.1, 0.2):
+        for rho in (0.5, 0.8, 0.95, 0.99, 0.998):
+            if q == 0:
+                rho = a_tot
+            if a_tot > rho:
+                continue
+            b_tot = rho - a_tot
+            if q > 0 and b_tot <= 0:
+                continue
+            theta = np.concatenate([[1.0 - rho], np.full(p, a_tot / p), np.full(q, b_tot / max(q, 1))])
+            ll = lik.value(theta)
+            if ll > best_ll:
+                best, best_ll = theta, ll
+    if best is None:
+        raise EstimationError("no GARCH starting point has a finite likelihood")
+    return best
+
+
+def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
+              ) -> tuple[np.ndarray, int, bool]:
+    """Fisher scoring with Levenberg damping in unconstrained coordinates."""
+    z = _from_theta(theta0)
+    theta = theta0
+    ll, score, info, _ = lik.full(theta)
+    lam = 1e-3
+    for it in range(1, max_iter + 1):
+        jac = _theta_jacobian(z, theta)
+        g = jac.T @ score
+        h = jac.T @ info @ jac
+        diag = np.diag(h).copy()
+        diag[diag <= 0] = 1.0
+        improved = False
+        for _ in range(40):
+            step = np.linalg.solve(h + lam * np.diag(diag), g)
+            z_new = z + step
+            theta_new = _to_theta(z_new)
+            if theta_new[1:].sum() < 1.0 and np.all(np.isfinite(theta_new)):
+                ll_new = lik.value(theta_new)
+                if ll_new >= ll:
+                    improved = True
+                    break
+            lam *= 10.0
+        if not improved:
+            return theta, it, bool(g @ np.linalg.lstsq(h, g, rcond=None)[0] < tol)
+        predicted = float(g @ step)
+        gain = ll_new - ll
+        z, theta = z_new, theta_new
+        ll, score, info, _ = lik.full(theta)
+        lam = max(lam / 10.0, 1e-12)
+        if predicted < tol and gain <= tol:
+            return theta, it, True
+    return theta, max_iter, False
+
+
+@attrs.frozen
+class GarchFit(EstimatesMixin):
+    """A zero-mean GARCH(p, q) fitted by Gaussian maximum likelihood.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (1,)
+        Constant ``alpha_0`` of eq. 7, u^2.
+    alpha : ndarray, shape (p,)
+        ARCH coefficients (on ``x_{t-i}^2``), dimensionless.
+    beta : ndarray, shape (q,)
+        GARCH coefficients (on ``sigma_{t-j}^2``), dimensionless.
+    loglikelihood : float
+        Maximised Gaussian log-likelihood, nats (in the data's unit).
+    conditional_variance : ndarray, shape (T,)
+        ``sigma_t^2``, u^2: the one-step-ahead variance given the past.
+    cov_params : ndarray, shape (1 + p + q, 1 + p + q)
+        Inverse expected information (eqs. 8-9), in the order (omega, alpha, beta).
+    n : int
+        Number of samples T.
+    converged : bool
+        Whether the scoring iterations met the tolerance.
+    n_iter : int
+        Scoring iterations used.
+    scale : float
+        Root mean square of the data (the internal scaling), u.
+    lm_test : ArchLMTest
+        Engle's LM test for ARCH effects left in ``x_t / sigma_t``.
+    """
+
+    omega: np.ndarray = array_field()
+    alpha: np.ndarray = array_field()
+    beta: np.ndarray = array_field()
+    loglikelihood: float
+    conditional_variance: np.ndarray = array_field(repr=False)
+    cov_params: np.ndarray = array_field(repr=False)
+    n: int
+    converged: bool
+    n_iter: int
+    scale: float
+    lm_test: ArchLMTest
+
+    @property
+    def order(self) -> tuple[int, int]:
+        """``(p, q)``."""
+        return self.alpha.size, self.beta.size
+
+    @property
+    def params(self) -> np.ndarray:
+        """``(omega, alpha_1..p, beta_1..q)``."""
+        return np.concatenate([self.omega, self.alpha, self.beta])
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names in the paper's notation (``alpha0`` is omega)."""
+        p, q = self.order
+        return ("alpha0", *(f"alpha{i}" for i in range(1, p + 1)), *(f"beta{j}" for j in range(1, q + 1)))
+
+    @property
+    def persistence(self) -> float:
+        """``sum alpha + sum beta`` (< 1)."""
+        return float(self.alpha.sum() + self.beta.sum())
+
+    @property
+    def unconditional_variance(self) -> float:
+        """``omega / (1 - persistence)``, u^2."""
+        return float(self.omega[0] / (1.0 - self.persistence))
+
+    @property
+    def aic(self) -> float:
+        """Akaike information criterion ``-2 loglik + 2 k``."""
+        return -2.0 * self.loglikelihood + 2.0 * self.params.size
+
+    def summary(self) -> str:
+        """Table of estimates, standard errors, t- and p-values (as Tables 1-2), and the LM test."""
+        p, q = self.order
+        text = self.estimates_table(
+            f"GARCH({p},{q}) by Gaussian ML, T = {self.n}: loglik {self.loglikelihood:.6f}, "
+            f"persistence {self.persistence:.6g}, "
+            f"{'converged' if self.converged else 'NOT converged'} in {self.n_iter} iterations")
+        return text + "\n" + self.lm_test.summary()
+
+
+def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter: int = 200,
+              tol: float = 1e-8, start: ArrayLike | None = None) -> GarchFit:
+    """Fit a zero-mean GARCH(p, q) (eq. 7) by Gaussian maximum likelihood.
+
+    Parameters
+    ----------
+    x : array_like, shape (T,)
+        Zero-mean residuals (e.g. the innovations of an ARMA mean model), unit u; any scale
+        (the data are scaled to unit mean square inside).
+    p : int
+        ARCH order (lags of ``x^2``), >= 1.
+    q : int
+        GARCH order (lags of ``sigma^2``), >= 0.
+    lags : int
+        Lags of Engle's LM test on the standardized residuals.
+    max_iter : int
+        Scoring iterations allowed.
+    tol : float
+        Stop when the predicted log-likelihood gain of a step is below `tol` nats.
+    start : array_like, optional
+        ``(omega, alpha..., beta...)`` to start from (u^2 for omega) instead of the grid.
+
+    Returns
+    -------
+    GarchFit
+
+    Raises
+    ------
+    InputError
+        NaN/inf, too short (fewer than ``max(100, 10 (1 + p + q))`` samples), all zero, bad orders.
+    EstimationError
+        No finite likelihood at any start.
+    """
+    p = check_positive_int(p, name="p")
+    q = check_positive_int(q, name="q", minimum=0)
+    k = 1 + p + q
+    x = as_signal(x, name="x", min_length=max(100, 10 * k))
+    scale = float(np.sqrt(np.mean(x * x)))
+    if not scale > 0:
+        raise InputError("x is identically zero: it has no volatility to model")
+    y = x / scale
+    lik = _Likelihood(y, p, q)
+    if start is None:
+        theta0 = _grid_start(lik, p, q)
+    else:
+        theta0 = np.asarray(start, dtype=np.float64).copy()
+        if theta0.shape != (k,):
+            raise InputError(f"start must hold 1 + p + q = {k} values, got shape {theta0.shape}")
+        _check_theta(theta0[0], theta0[1 : 1 + p], theta0[1 + p :])
+        if not theta0[1:].sum() < 1 or np.any(theta0[1:] <= 0):
+            raise InputError("start must have alpha, beta > 0 and sum(alpha) + sum(beta) < 1")
+        theta0[0] /= scale**2
+    max_iter = check_positive_int(max_iter, name="max_iter")
+    if start is None and y.size > 4 * _PREFIX_SAMPLES:
+        # converge on a prefix first (its scoring steps are cheap); the whole record then
+        # needs only a few steps from there
+        prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
+        theta0 = _maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0]
+    theta, n_iter, converged = _maximise(lik, theta0, max_iter, tol)
+    ll, _, info, s2 = lik.full(theta)
+    try:
+        cov = np.linalg.inv(info)
+    except np.linalg.LinAlgError:
+        cov = np.full((k, k), np.nan)
+    units = np.ones(k)
+    units[0] = scale**2
+    omega, alpha, beta = _split(theta * units, p)
+    z = y / np.sqrt(s2)
+    return GarchFit(
+        omega=np.array([omega]), alpha=alpha.copy(), beta=beta.copy(),
+        loglikelihood=ll - x.size * math.log(scale), conditional_variance=s2 * scale**2,
+        cov_params=cov * np.outer(units, units), n=int(x.size), converged=converged,
+        n_iter=n_iter, scale=scale, lm_test=arch_lm_test(z, lags),
+    )
+
+
+def select_garch(x: ArrayLike, *, max_p: int = 2, max_q: int = 2, lags: int = 10,
+                 alpha: float = 0.05, **options: Any) -> GarchFit:
+    """Grow GARCH(p, q) from (1, 1) until Engle's LM test finds no ARCH effect left.
+
+    Models of total order ``p + q = 2, 3, ...`` (p >= 1) are fitted in turn; at each total order
+    the one of highest likelihood is kept, and the growth stops at the first whose standardized
+    residuals ``x_t / sigma_t`` pass the LM test at level `alpha` (Section 5). When none passes
+    up to ``(max_p, max_q)``, the fit of best AIC is returned (its ``lm_test`` says it failed).
+    """
+    alpha = check_alpha(alpha)
+    max_p = check_positive_int(max_p, name="max_p")
+    max_q = check_positive_int(max_q, name="max_q", minimum=0)
+    tried: list[GarchFit] = []
+    for total in range(2 if max_q > 0 else 1, max_p + max_q + 1):
+        level = [fit_garch(x, p, total - p, lags=lags, **options)
+                 for p in range(1, max_p + 1) if 0 <= total - p <= max_q]
+        if not level:
+            continue
+        best = max(level, key=lambda f: f.loglikelihood)
+        tried.append(best)
+        if best.lm_test.pvalue > alpha:
+            return best
+    return min(tried, key=lambda f: f.aic)
