@@ -149,7 +149,7 @@ def _canonical(model: Model) -> Model:
     procs = list(model.processes)
     for family in {p.family for p in procs}:
         slots = [i for i, p in enumerate(procs) if p.family == family]
-        ordered = sorted((procs[i] for i in slots), key=lambda p: -float(p.vector()[0]))
+        ordered = sorted((procs[i] for i in slots), key=lambda p: -p.ordering_key())
         for i, p in zip(slots, ordered):
             procs[i] = p
     return attrs.evolve(model, processes=tuple(procs))
