@@ -99,6 +99,17 @@ def check_positive_int(value: int, *, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def check_positive(value: float, *, name: str) -> float:
+    """Return `value` as a positive finite float, or raise :class:`InputError` naming it."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number, got {value!r}") from None
+    if isinstance(value, bool) or not (np.isfinite(out) and out > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    return out
+
+
 def check_alpha(alpha: float) -> float:
     """Return a significance level as a float in (0, 1), or raise :class:`InputError`."""
     try:

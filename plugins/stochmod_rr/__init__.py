@@ -26,7 +26,6 @@ the wavelet variance never uses it.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -35,8 +34,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import InputError
 from stochmod.coefficients import check_coefficients
+from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator

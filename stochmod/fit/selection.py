@@ -46,7 +46,7 @@ from stochmod.reporting import format_table
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
-           "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]
+           "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (DEFAULT_FAMILIES: __getattr__)
 
 
 #: Weightings usable in a selection (the bootstrap weighting depends on each model's own fit,

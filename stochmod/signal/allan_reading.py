@@ -42,9 +42,10 @@ from scipy.special import chdtri, ndtri
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import EstimationError, InputError
-from stochmod.geometric import WV_PEAK_X
+from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X
 from stochmod.reporting import format_number, format_table
 from stochmod.signal.allan import AllanVariance, avar, greenhall_edf, local_slopes
+from stochmod.units import BI_FACTOR, convert, parse_unit
 
 __all__ = [
     "Coefficient",
@@ -65,10 +66,9 @@ TERMS: dict[str, tuple[int, str, str]] = {
     "K": (1, "rate / acceleration random walk", "u/sqrt(s)"),
     "R": (2, "rate ramp", "u/s"),
 }
-#: Ratio of the flat Allan-deviation floor to B, sqrt(2 ln 2 / pi) = 0.66428 (IEEE 952: 0.664).
-_BI = math.sqrt(2.0 * math.log(2.0) / math.pi)
-#: coefficient^2 = factor * C where the line is AV = C tau^slope
-_FACTOR = {"Q": 1.0 / 3.0, "N": 1.0, "B": 1.0 / _BI**2, "K": 3.0, "R": 2.0}
+#: coefficient^2 = factor * C where the line is AV = C tau^slope (B: the flat deviation floor
+#: is BI_FACTOR * B)
+_FACTOR = {"Q": 1.0 / 3.0, "N": 1.0, "B": 1.0 / BI_FACTOR**2, "K": 3.0, "R": 2.0}
 #: Noise exponent (rate PSD ~ f^alpha) of each term for its EDF. A ramp is deterministic in a
 #: record (its AV, R^2 tau^2 / 2, has no sampling error of its own): the white-noise EDF.
 _NOISE = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": 0}
@@ -79,12 +79,14 @@ _OCTAVE_CORR = {"Q": (0.5, 0.3), "N": (0.55, 0.0), "B": (0.7, 0.0), "K": (0.88, 
                 "R": (0.55, 0.0)}
 #: Averaging time (s) at which the deviation line equals the coefficient (IEEE 952 read-off).
 _READ_TAU = {"Q": math.sqrt(3.0), "N": 1.0, "K": 3.0, "R": math.sqrt(2.0)}
-#: tau / Tc at the maximum of a first-order Gauss-Markov AV, and that maximum / sigma^2.
+#: tau / Tc at the maximum of a first-order Gauss-Markov AV, and that maximum / sigma^2:
+#: where a correlated bump sits on the curve (a flat region may be one).
 #: AV = (2 s^2 Tc / tau) [1 - (Tc / 2 tau)(3 - 4 exp(-tau/Tc) + exp(-2 tau/Tc))]
 #: (IEEE 952 Annex C); the values are checked against a numerical maximisation in the tests.
 GM_PEAK_X = WV_PEAK_X
-GM_PEAK_AV = 0.38113865810244997
-#: How ``to_model`` turns (B, Tc) into a GM: "quinchia" (default) or "matched".
+GM_PEAK_AV = AV_PEAK_VALUE
+#: Conventions of the ``gm`` option (how a model is built from B and Tc,
+#: :func:`stochmod.classical.allan_model`): "quinchia" (default) or "matched".
 GM_CONVENTIONS = ("quinchia", "matched")
 #: Datasheet unit of each term, by the physical kind of the signal unit ("rate", "acceleration").
 DATASHEET_UNITS: dict[str, dict[str, str]] = {
@@ -165,7 +167,8 @@ class AllanReading:
     unit : str or None
         Unit of the signal when given (e.g. "rad/s"); enables the datasheet column.
     gm : str
-        GM convention of :meth:`to_model` (:data:`GM_CONVENTIONS`).
+        Convention for a model built from B and Tc (:data:`GM_CONVENTIONS`,
+        :func:`stochmod.classical.allan_model`).
     method : str
         "fit" (fixed-slope weighted least squares over each region) or "ieee" (single-point
         read-off: N at tau = 1 s, K at 3 s, Q at sqrt 3 s, R at sqrt 2 s on the region's
@@ -193,6 +196,15 @@ class AllanReading:
         """The five coefficients by name, in slope order (Q, N, B, K, R)."""
         return {name: getattr(self, name) for name in TERMS}
 
+    def coefficient_values(self) -> dict[str, float]:
+        """The identified coefficients in SI, ``{"N": ..., "B": ..., "Tc": ..., "K": ...}``
+        (names of :data:`stochmod.coefficients.COEFFICIENTS`; Tc with B);
+        :func:`stochmod.classical.allan_model` turns them into a model."""
+        out = {name: float(c.value) for name, c in self.coefficients.items() if c is not None}
+        if "B" in out and self.Tc is not None:
+            out["Tc"] = float(self.Tc)
+        return out
+
     def line(self, tau: ArrayLike) -> np.ndarray:
         """Sum of the identified lines (the AV the reading explains) at `tau` (s), unit^2."""
         t = np.asarray(tau, dtype=float)
@@ -205,7 +217,7 @@ class AllanReading:
     def summary(self) -> str:
         """Table of the coefficients with intervals (and datasheet units when possible)."""
         level = format_number(100 * (1 - self.alpha))
-        units_mod, kind = _datasheet_kind(self.unit)
+        kind = _datasheet_kind(self.unit)
         headers = ["coef", "slope", "value", "CI low", "CI high", "unit", "tau range [s]"]
         if kind is not None:
             headers += ["datasheet", "ds unit"]
@@ -220,7 +232,7 @@ class AllanReading:
                 row = [name, _slope_text(c.slope), c.value, c.low, c.high, c.unit_hint, rng]
                 if kind is not None:
                     ds_unit = DATASHEET_UNITS[kind][name]
-                    row += [_to_datasheet(units_mod, c.value, self.unit, name, ds_unit), ds_unit]
+                    row += [_to_datasheet(c.value, self.unit, name, ds_unit), ds_unit]
             rows.append(row)
         title = (
             f"Allan variance slope reading ({self.method}, {level}% CI, N = {self.avar.n}, "
@@ -245,76 +257,26 @@ class AllanReading:
             "avar": self.avar.to_dict(),
         }
 
-    def to_spec(self, freq: float | None = None) -> dict[str, Any]:
-        """Model spec (``{"processes": [...]}``) of the identified terms at `freq` Hz.
-
-        WN(sigma2 = N^2 freq), GM(beta, sigma2) from B and Tc (see `gm`),
-        RW(sigma2 = K^2 / freq), QN(Q2 = Q^2 freq^2), RR(omega = R / freq): the per-sample
-        parameters whose Allan variances are N^2/tau, K^2 tau/3 (tau >> 1/freq), 3 Q^2/tau^2
-        (exactly: X_t = sqrt(12 Q2)(U_t - U_{t-1}) has AV 3 Q2 / m^2) and R^2 tau^2 / 2.
-
-        "quinchia" GM (Quinchia et al. 2013 eqs. 19-20, 27-30): beta = 1 / Tc and
-        sigma_GM = 0.664 B (eq. 29), i.e. the flat deviation level. "matched": the GM whose
-        AV peak (at tau = 1.8926 / beta, value 0.3811 sigma^2) sits on the flat level at Tc:
-        beta = 1.8926 / Tc, sigma^2 = 0.4413 B^2 / 0.3811.
-
-        Raises
-        ------
-        EstimationError
-            No coefficient was identified.
-        """
-        fs = self.freq if freq is None else check_freq(freq)
-        procs: list[dict[str, Any]] = []
-        if self.Q is not None:
-            procs.append({"family": "QN", "params": {"Q2": self.Q.value**2 * fs**2}})
-        if self.N is not None:
-            procs.append({"family": "WN", "params": {"sigma2": self.N.value**2 * fs}})
-        if self.B is not None and self.Tc is not None:
-            level = self.B.line  # flat AV level, (2 ln2 / pi) B^2
-            if self.gm == "quinchia":
-                gm = {"beta": 1.0 / self.Tc, "sigma2": level}
-            else:
-                gm = {"beta": GM_PEAK_X / self.Tc, "sigma2": level / GM_PEAK_AV}
-            procs.append({"family": "GM", "params": gm})
-        if self.K is not None:
-            procs.append({"family": "RW", "params": {"sigma2": self.K.value**2 / fs}})
-        if self.R is not None:
-            procs.append({"family": "RR", "params": {"omega": self.R.value / fs}})
-        if not procs:
-            raise EstimationError("the Allan variance reading identified no coefficient")
-        return {"processes": procs}
-
-    def to_model(self, freq: float | None = None) -> Any:
-        """The composite model of :meth:`to_spec`, built by ``stochmod.model_from_spec``."""
-        from stochmod import model_from_spec
-
-        fs = self.freq if freq is None else check_freq(freq)
-        return model_from_spec(self.to_spec(fs), fs)
-
-
 def _slope_text(slope: int) -> str:
     half = {-2: "-1", -1: "-1/2", 0: "0", 1: "+1/2", 2: "+1"}[slope]
     return f"{slope:+d} (dev {half})" if slope else "0 (dev 0)"
 
 
-def _datasheet_kind(unit: str | None) -> tuple[Any, str | None]:
+def _datasheet_kind(unit: str | None) -> str | None:
+    """The kind ("rate", "acceleration") of `unit` when it has datasheet units, else None."""
     if unit is None:
-        return None, None
+        return None
     try:
-        from stochmod import units as units_mod
-    except ImportError:  # the units module is optional here
-        return None, None
-    try:
-        kind = units_mod.parse_unit(unit).kind
-    except Exception:  # an unparsable unit only loses the datasheet column
-        return None, None
-    return (units_mod, kind) if kind in DATASHEET_UNITS else (None, None)
+        kind = parse_unit(unit).kind
+    except InputError:  # an unparsable unit only loses the datasheet column
+        return None
+    return kind if kind in DATASHEET_UNITS else None
 
 
-def _to_datasheet(units_mod: Any, value: float, unit: str | None, name: str, ds_unit: str) -> float:
+def _to_datasheet(value: float, unit: str | None, name: str, ds_unit: str) -> float:
     template = TERMS[name][2]
     si_unit = template.replace("u", f"({unit})", 1)
-    return float(units_mod.convert(value, si_unit, ds_unit, kind=name))
+    return float(convert(value, si_unit, ds_unit, kind=name))
 
 
 # ----------------------------------------------------------------------------- identification
@@ -645,7 +607,7 @@ def allan_reading(
     alpha : float
         Significance level of the intervals (0.05: 95 %).
     gm : {"quinchia", "matched"}
-        How :meth:`AllanReading.to_model` builds the GM from B and Tc.
+        How :func:`stochmod.classical.allan_model` builds a model from B and Tc.
     unit : str, optional
         Unit of the signal ("rad/s", "deg/s", "m/s^2", "g" ...): labels the SI units and adds
         datasheet values (deg/sqrt(h), deg/h ... or m/s/sqrt(h), ug ...) to the summary.
