@@ -28,8 +28,8 @@ import functools
 import math
 import numbers
 import warnings
-from fractions import Fraction
 from collections.abc import Mapping
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import attrs
@@ -40,14 +40,13 @@ import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import AccuracyWarning, DomainError, InputError, SpecError
 from stochmod.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
-from stochmod.coefficients import check_coefficients
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter, get_domain
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.statespace import StateSpaceBlock
-
 from stochmod_ar._jacobian import haar_wv_phi_jacobian
 from stochmod_ar._roots import ARRoots, ar_roots
 

@@ -33,16 +33,26 @@ import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError
 from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X, haar_wv_positive
-from stochmod.coefficients import check_coefficients
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.statespace import ContinuousBlock
 from stochmod.units import BI_FACTOR, bi_floor, bi_from_floor
+from stochmod_gm.discrete import (
+    GMDiscrete,
+    ar1_to_gm,
+    gm_discretize,
+    gm_driving_psd,
+    gm_from_bias_instability,
+    gm_from_discrete,
+)
 
-__all__ = ["GM", "PEAK_X", "PEAK_AV", "CONVENTIONS", "stochmod_processes"]
+__all__ = ["GM", "PEAK_X", "PEAK_AV", "CONVENTIONS", "stochmod_processes", "GMDiscrete",
+           "ar1_to_gm", "gm_discretize", "gm_driving_psd", "gm_from_bias_instability",
+           "gm_from_discrete"]
 
 #: ``m beta / freq`` at which a GM's Haar WV peaks over the levels (slow limit); the Allan
 #: variance peaks at ``tau = PEAK_X Tc``.
@@ -115,18 +125,15 @@ class GM(Process):
 
         Notes
         -----
-        ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``; a phi
-        within a few ulps of 1 carries few digits of beta.
+        ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``
+        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion ``stochmod.units.gm_from_discrete``
+        also uses: same errors); a phi within a few ulps of 1 carries few digits of beta.
         """
-        freq = check_freq(freq)
-        try:
-            p = float(phi)
-        except (TypeError, ValueError):
-            raise DomainError(f"GM.from_ar1: phi must be a number in (0, 1), got {phi!r}") from None
-        if not 0.0 < p < 1.0:
-            raise DomainError(f"GM.from_ar1: phi must lie in (0, 1) for a Gauss-Markov process, got {phi!r}")
-        q = _positive(innovation_var, "GM.from_ar1: innovation_var (u^2)")
-        return cls(beta=-math.log(p) * freq, sigma2=q / ((1.0 - p) * (1.0 + p)))
+        _, _, beta, sigma2, scalar = ar1_to_gm(phi, innovation_var, freq)
+        if not scalar:
+            raise InputError(f"GM.from_ar1 takes one phi and one innovation_var, got {phi!r}, "
+                             f"{innovation_var!r}")
+        return cls(beta=float(beta), sigma2=float(sigma2))
 
     @classmethod
     def from_bias_instability(cls, B: float, Tc: float, *, factor: float = BI_FACTOR) -> GM:

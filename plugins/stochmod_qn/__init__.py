@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import DomainError, InputError
 from stochmod.coefficients import check_coefficients
+from stochmod.errors import DomainError, InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator

@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.classical.build import acf_model, allan_model, ar_model, psd_reading_model
+from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.fit.weighting import chi2_variance
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
