@@ -17,6 +17,8 @@ Generic fallbacks, used where a family does not override them:
 
 from __future__ import annotations
 
+import abc
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -31,7 +33,7 @@ from stochmod.params import SCALE_POWERS, Parameter, get_domain
 from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
-__all__ = ["Process", "PhysicalValue", "as_generator", "has_theoretical_wv"]
+__all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "has_theoretical_wv"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -54,13 +56,17 @@ class PhysicalValue:
 
 
 @attrs.frozen
-class Process:
+class Process(abc.ABC):
     """Base class of process families.
 
     Subclasses set the class variables below, declare one attrs field per parameter
-    (default ``None``: free) and implement at least :meth:`psd`, :meth:`discrete_block`
-    or :meth:`continuous_block`, :meth:`start` and :meth:`physical`; stationary families
-    also :meth:`autocovariance`. Everything else has a generic fallback.
+    (default ``None``: free) and must implement the abstract :meth:`start` and
+    :meth:`example`, and declare a state-space block: :meth:`continuous_block` or
+    :meth:`discrete_block` (with :attr:`state_names`), or, for a feed-through family without
+    states, :meth:`white_variance` (:func:`declares_block`; an instance of a family that
+    declares none is refused). They implement :meth:`psd` (families without one are fitted by
+    indirect inference, see :func:`has_theoretical_wv`), :meth:`physical`, and stationary
+    families :meth:`autocovariance`. Everything else has a generic fallback.
 
     Class variables
     ---------------
@@ -98,6 +104,11 @@ class Process:
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
 
     def __attrs_post_init__(self) -> None:
+        if not declares_block(type(self)):
+            raise TypeError(
+                f"Can't instantiate family {type(self).__name__}: it declares no state-space "
+                "block (override continuous_block or discrete_block, with state_names; or "
+                "white_variance for a feed-through family without states)")
         for spec in self.parameters():
             value = getattr(self, spec.name)
             if value is not None:
@@ -431,6 +442,7 @@ class Process:
                               check_positive_int(n, name="n"), as_generator(rng))
 
     # ------------------------------------------------------------------ estimation support
+    @abc.abstractmethod
     def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,
               rng: np.random.Generator | None = None) -> Process:
         """Starting values for the free parameters from an empirical Haar WV (levels 1..J).
@@ -457,6 +469,7 @@ class Process:
         return {}
 
     @classmethod
+    @abc.abstractmethod
     def example(cls, freq: float) -> Process:
         """A typical instance at `freq` Hz (for documentation and the conformance kit):
         its time scales must be resolvable by simulations of ~2^16 samples."""
@@ -465,6 +478,15 @@ class Process:
 
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
+
+
+@functools.lru_cache(maxsize=None)
+def declares_block(cls: type[Process]) -> bool:
+    """Whether the family declares its state-space block: it overrides
+    :meth:`Process.continuous_block` or :meth:`Process.discrete_block`, or
+    :meth:`Process.white_variance` (a feed-through family without states)."""
+    return any(_overrides(cls, name) for name in ("continuous_block", "discrete_block",
+                                                  "white_variance"))
 
 
 def has_theoretical_wv(process: Process | type[Process]) -> bool:
