@@ -7,7 +7,7 @@ Real data: ADIS16405 imu1 (`../shared/data/imudata/adis_16405_imu1.npz`), Gyro_X
 rad/s) and Accel_X (g -> m/s^2), mean removed, 100 Hz. For each column it runs the Allan (AV),
 PSD, ACF, Burg AR(3), de-noised AR(3), AVWD and GMWM methods, prints each model's parameters in
 datasheet units (stochmod.units), the GMWM objective of every model's wavelet variance against
-the data's (stochmod.signal.pipelines.compare_models), the per-level ratios, and the wall time
+the data's (stochmod.classical.pipelines.compare_models), the per-level ratios, and the wall time
 of each method. There is no peer to time against here (bench_allan / bench_gmwm do that); the
 times only show what each method costs on 10^6 samples.
 
@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 import stochmod as sm
+from stochmod.classical import ar_model
 from stochmod.signal.ar_fit import fit_ar
-from stochmod.signal.pipelines import (
+from stochmod.classical.pipelines import (
     acf_gm_model,
     av_model,
     avwd_model,
@@ -83,7 +84,7 @@ def real_column(name: str, x: np.ndarray, unit: str, gmwm_specs: list[str], leve
     results["ACF"], times["ACF"] = _timed(lambda: acf_gm_model(x, FS))
     results["ACF (LS)"], times["ACF (LS)"] = _timed(lambda: acf_gm_model(x, FS, use_ls=True))
     burg, times["Burg AR(3)"] = _timed(lambda: fit_ar(x, FS, 3))
-    results["Burg AR(3)"] = burg.to_model(FS)
+    results["Burg AR(3)"] = ar_model(burg, FS)
     results["WD+AR(3)"], times["WD+AR(3)"] = _timed(lambda: denoised_ar_model(x, FS, 3, level=6))
     for spec in gmwm_specs:
         key = f"GMWM {spec}"
@@ -189,7 +190,7 @@ def one_run(case: str, seed: int) -> dict[str, float]:
         for order in (1, 3):
             ar = denoised_ar_model(x, FS, order, level=3)
             out[f"WD+AR({order}) Tc"] = ar.model.processes[0].physical(FS)["Tc"].value / t["Tc"]
-            raw_ar = fit_ar(x, FS, order).to_model(FS)
+            raw_ar = ar_model(fit_ar(x, FS, order), FS)
             out[f"AR({order}) Tc"] = raw_ar.processes[0].physical(FS)["Tc"].value / t["Tc"]
         return out
     av = av_model(x, FS)
@@ -215,7 +216,7 @@ def one_run(case: str, seed: int) -> dict[str, float]:
         if k in t:
             out[f"GMWM {k}"] = v / t[k]
     others = {"AV": av, "AVWD": wd, "PSD": ps, "WD+AR(3)": denoised_ar_model(x, FS, 3),
-              "Burg AR(3)": fit_ar(x, FS, 3).to_model(FS), "GMWM": g}
+              "Burg AR(3)": ar_model(fit_ar(x, FS, 3), FS), "GMWM": g}
     try:
         others["ACF"] = acf_gm_model(x, FS)
     except sm.EstimationError:

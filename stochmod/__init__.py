@@ -43,7 +43,7 @@ from stochmod.signal.allan import AllanVariance, avar
 from stochmod.signal.allan_reading import AllanReading, allan_reading
 from stochmod.signal.ar_fit import burg, fit_ar, yule_walker
 from stochmod.signal.denoise import denoise
-from stochmod.signal.pipelines import (
+from stochmod.classical.pipelines import (
     ModelComparison,
     acf_gm_model,
     av_model,

@@ -4,13 +4,15 @@ clean float64 arrays or raises an :class:`~stochmod.errors.InputError` naming th
 from __future__ import annotations
 
 import numbers
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.errors import InputError
 
-__all__ = ["as_signal", "as_signals", "check_alpha", "check_freq", "check_positive_int"]
+__all__ = ["as_signal", "as_signals", "check_alpha", "check_freq", "check_positive",
+           "check_positive_int", "checked_values", "scalar_or_array"]
 
 
 def _as_float_array(x: ArrayLike, name: str) -> np.ndarray:
@@ -25,6 +27,25 @@ def _as_float_array(x: ArrayLike, name: str) -> np.ndarray:
     if np.iscomplexobj(arr):
         raise InputError(f"{name} must be real, got complex values")
     return arr.astype(np.float64, copy=False)
+
+
+def checked_values(x: ArrayLike, name: str, *, sign: Literal["any", "nonneg", "pos"] = "any"
+                   ) -> tuple[np.ndarray, bool]:
+    """Finite float64 array and whether the input was a scalar; checks the sign asked for
+    (:class:`InputError` naming `name` otherwise)."""
+    arr = _as_float_array(x, name)
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} must be finite, got {x!r}")
+    if sign == "nonneg" and np.any(arr < 0):
+        raise InputError(f"{name} must be non-negative, got {x!r}")
+    if sign == "pos" and np.any(arr <= 0):
+        raise InputError(f"{name} must be positive, got {x!r}")
+    return arr, arr.ndim == 0
+
+
+def scalar_or_array(arr: np.ndarray, scalar: bool) -> float | np.ndarray:
+    """`arr` as a float when the input was a scalar (see :func:`checked_values`)."""
+    return float(arr) if scalar else arr
 
 
 def _check_finite(arr: np.ndarray, name: str) -> None:
@@ -97,6 +118,17 @@ def check_positive_int(value: int, *, name: str, minimum: int = 1) -> int:
     if value < minimum:
         raise InputError(f"{name} must be at least {minimum}, got {value}")
     return int(value)
+
+
+def check_positive(value: float, *, name: str) -> float:
+    """Return `value` as a positive finite float, or raise :class:`InputError` naming it."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number, got {value!r}") from None
+    if isinstance(value, bool) or not (np.isfinite(out) and out > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    return out
 
 
 def check_alpha(alpha: float) -> float:

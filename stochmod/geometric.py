@@ -47,6 +47,7 @@ from stochmod.errors import InputError
 
 __all__ = [
     "WV_PEAK_X",
+    "AV_PEAK_VALUE",
     "haar_kernel_value",
     "haar_wv_geometric",
     "haar_wv_geometric_dlog",
@@ -59,6 +60,8 @@ __all__ = [
 #: half-width m (slow limit): the maximiser of ``g(x) / x^2``, ``g(x) = 2x - 3 + 4e^-x - e^-2x``
 #: (the Allan-variance peak at tau = 1.89 Tc of a first-order Gauss-Markov process).
 WV_PEAK_X = 1.8926178329250188
+#: ``g(WV_PEAK_X) / WV_PEAK_X^2``: that Allan-variance peak over the stationary variance.
+AV_PEAK_VALUE = 0.38113865810244997
 
 # Taylor coefficients: sinh(u) - u = u^3 sum_k u^(2k) / (2k+3)!  and
 # g(x) = 2x - 3 + 4 e^-x - e^-2x = x^3 sum_n (-1)^n (4 - 2^n) / n! x^(n-3), n >= 3.

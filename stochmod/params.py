@@ -15,7 +15,19 @@ from scipy.special import expit
 
 from stochmod.errors import DomainError
 
-__all__ = ["Parameter", "Domain", "DOMAINS", "get_domain", "pacf_to_ar", "ar_to_pacf"]
+__all__ = ["Parameter", "Domain", "DOMAINS", "ROLES", "SCALE_POWERS", "get_domain", "pacf_to_ar",
+           "ar_to_pacf"]
+
+#: What a parameter is to its family (declared by ``Parameter(..., role=...)``). The core reads
+#: rules from the roles instead of probing the family (docs/plugin_contract.md, "Roles"):
+ROLES: dict[str, str] = {
+    "variance": "scale, u^2: the family's wavelet variance is proportional to it",
+    "amplitude": "scale, u: the family's wavelet variance is proportional to its square",
+    "rate": "inverse time scale (1/s, Hz or per sample): where the process lives in tau",
+    "shape": "dimensionless form of the correlation (AR or MA coefficients ...)",
+}
+#: Power d of a scale role: the wavelet variance is proportional to ``value ** d``.
+SCALE_POWERS: dict[str, int] = {"variance": 1, "amplitude": 2}
 
 
 def pacf_to_ar(r: np.ndarray) -> np.ndarray:
@@ -169,6 +181,11 @@ class Parameter:
         One line for tables and ``stochmod processes``.
     size : int
         Number of scalars (``p`` for AR(p) coefficients).
+    role : str or None
+        One of :data:`ROLES` (keyword only): ``"variance"`` or ``"amplitude"`` for the scale
+        parameter (the family's wavelet variance is proportional to the value, or to its
+        square), ``"rate"`` for an inverse time scale, ``"shape"`` for a dimensionless form.
+        None means undeclared: the conformance kit (:mod:`stochmod.testing`) refuses it.
     """
 
     name: str
@@ -176,6 +193,8 @@ class Parameter:
     unit: str
     description: str = ""
     size: int = 1
+    role: str | None = attrs.field(
+        default=None, kw_only=True, validator=attrs.validators.optional(attrs.validators.in_(ROLES)))
 
     def check(self, value: object, family: str) -> np.ndarray | float:
         """Validate `value` against the domain; return it as float (scalar) or float array."""

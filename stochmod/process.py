@@ -17,7 +17,10 @@ Generic fallbacks, used where a family does not override them:
 
 from __future__ import annotations
 
+import abc
+import functools
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import attrs
@@ -26,11 +29,11 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.params import Parameter, get_domain
+from stochmod.params import SCALE_POWERS, Parameter, get_domain
 from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
-__all__ = ["Process", "PhysicalValue", "as_generator", "has_theoretical_wv"]
+__all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "has_theoretical_wv"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -53,13 +56,17 @@ class PhysicalValue:
 
 
 @attrs.frozen
-class Process:
+class Process(abc.ABC):
     """Base class of process families.
 
     Subclasses set the class variables below, declare one attrs field per parameter
-    (default ``None``: free) and implement at least :meth:`psd`, :meth:`discrete_block`
-    or :meth:`continuous_block`, :meth:`start` and :meth:`physical`; stationary families
-    also :meth:`autocovariance`. Everything else has a generic fallback.
+    (default ``None``: free) and must implement the abstract :meth:`start` and
+    :meth:`example`, and declare a state-space block: :meth:`continuous_block` or
+    :meth:`discrete_block` (with :attr:`state_names`), or, for a feed-through family without
+    states, :meth:`white_variance` (:func:`declares_block`; an instance of a family that
+    declares none is refused). They implement :meth:`psd` (families without one are fitted by
+    indirect inference, see :func:`has_theoretical_wv`), :meth:`physical`, and stationary
+    families :meth:`autocovariance`. Everything else has a generic fallback.
 
     Class variables
     ---------------
@@ -75,6 +82,16 @@ class Process:
         they appear in specs (``"AR(2)"`` or ``{"family": "AR", "order": 2}``).
     stationary : bool
         Whether the process has a stationary autocovariance.
+    lattice_copies : int
+        Copies of the family in the default selection lattice (0: not in it; the GM plugin
+        declares 3). :func:`stochmod.lattice.default_families` reads it from the registry.
+    lattice_rank : int
+        Where the family's processes sit in the default lattice's model names (ascending;
+        ties by family name): GM 10, WN 20, RW 30, QN 40, RR 50 give ``"GM+WN+RW"``.
+    ieee952 : tuple of tuple of str
+        The sets of coefficients (names of :data:`stochmod.coefficients.COEFFICIENTS`) that
+        :meth:`from_ieee952` builds the family from, e.g. ``(("N",),)`` for white noise or
+        ``(("B", "Tc"), ("rate", "variance"))``; empty: no classical reading yields it.
     """
 
     family: ClassVar[str] = ""
@@ -82,8 +99,16 @@ class Process:
     parameter_specs: ClassVar[tuple[Parameter, ...]] = ()
     structural_fields: ClassVar[tuple[str, ...]] = ()
     stationary: ClassVar[bool] = True
+    lattice_copies: ClassVar[int] = 0
+    lattice_rank: ClassVar[int] = 0
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
 
     def __attrs_post_init__(self) -> None:
+        if not declares_block(type(self)):
+            raise TypeError(
+                f"Can't instantiate family {type(self).__name__}: it declares no state-space "
+                "block (override continuous_block or discrete_block, with state_names; or "
+                "white_variance for a feed-through family without states)")
         for spec in self.parameters():
             value = getattr(self, spec.name)
             if value is not None:
@@ -152,7 +177,62 @@ class Process:
                 "give values or fit the model first"
             )
 
+    #: The name plugins written against earlier docs call; use :meth:`require_values`.
     _require_values = require_values
+
+    def scale_parameter(self) -> tuple[Parameter, int] | None:
+        """The scalar parameter declared with a scale role and its power d (the wavelet
+        variance is proportional to ``value ** d``: 1 for ``"variance"``, 2 for
+        ``"amplitude"``); None when the family declares none."""
+        for spec in self.parameters():
+            if spec.role in SCALE_POWERS and spec.size == 1:
+                return spec, SCALE_POWERS[spec.role]
+        return None
+
+    def ordering_key(self) -> float:
+        """Key that orders repeated components of this family in a fitted model, larger first
+        (GM: fastest first), so fits compare across runs without label switching.
+
+        Default: the first parameter declared with role ``"rate"``, else the scale parameter
+        (:meth:`scale_parameter`). Families whose order is another quantity override it.
+        """
+        self.require_values()
+        for spec in self.parameters():
+            if spec.role == "rate" and spec.size == 1:
+                return float(getattr(self, spec.name))
+        scale = self.scale_parameter()
+        if scale is None:
+            raise SpecError(f"{self.family} declares no rate or scale parameter role: declare "
+                            "roles on its Parameters or override Process.ordering_key")
+        return float(getattr(self, scale[0].name))
+
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float, **options: Any) -> Process:
+        """The process built from classical-reading coefficients (:attr:`ieee952` names which
+        sets), per-sample parameters at `freq` Hz. `options` are family conventions (GM's
+        ``convention``). Families without :attr:`ieee952` do not override it."""
+        raise SpecError(f"{cls.family} is built from no classical-reading coefficients "
+                        "(it declares no ieee952 sets)")
+
+    @classmethod
+    def ieee952_set(cls, coefficients: Mapping[str, Any]) -> tuple[str, ...]:
+        """The first of :attr:`ieee952` whose coefficients are all in `coefficients`.
+
+        Raises
+        ------
+        SpecError
+            None is (the message lists what the family is built from).
+        """
+        for names in cls.ieee952:
+            if all(n in coefficients for n in names):
+                return names
+        raise SpecError(f"{cls.family} is built from the coefficients {list(cls.ieee952)}; "
+                        f"got {sorted(coefficients)}")
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, Any]:
+        """The coefficients `names` (one of :attr:`ieee952`) of this process at `freq` Hz: the
+        inverse of :meth:`from_ieee952` (with its default options)."""
+        raise SpecError(f"{self.family} declares no ieee952 sets")
 
     def with_values(self, **values: Any) -> Process:
         """Return a copy with the given parameters set (validated against their domains)."""
@@ -168,7 +248,7 @@ class Process:
 
     def vector(self) -> np.ndarray:
         """All parameters as one float vector in declaration order (no parameter may be free)."""
-        self._require_values()
+        self.require_values()
         return np.concatenate([np.atleast_1d(np.asarray(getattr(self, p.name), float))
                                for p in self.parameters()])
 
@@ -186,7 +266,7 @@ class Process:
 
     def to_unconstrained(self) -> np.ndarray:
         """Parameters mapped to the unconstrained space of their domains."""
-        self._require_values()
+        self.require_values()
         return np.concatenate([
             np.atleast_1d(get_domain(p.domain).to_unconstrained(np.asarray(getattr(self, p.name), float)))
             for p in self.parameters()
@@ -230,7 +310,7 @@ class Process:
         Generic fallback: exact Haar sum over :meth:`autocovariance` for stationary families
         that declare one, else quadrature of the PSD (:func:`stochmod.theory.wv_from_psd`).
         """
-        self._require_values()
+        self.require_values()
         levels = check_positive_int(levels, name="levels")
         freq = check_freq(freq)
         if wavelet == "haar" and self.stationary and _overrides(type(self), "autocovariance"):
@@ -333,7 +413,7 @@ class Process:
         families: `dt` must be a whole number of sample periods, and the block composes that
         many native steps exactly.
         """
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         dt = float(dt)
         if not (np.isfinite(dt) and dt > 0):
@@ -357,11 +437,12 @@ class Process:
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """Simulate `n` samples at `freq` Hz from a seeded generator (generic: via the state space)."""
-        self._require_values()
+        self.require_values()
         return simulate_block(self.discrete_block(check_freq(freq)),
                               check_positive_int(n, name="n"), as_generator(rng))
 
     # ------------------------------------------------------------------ estimation support
+    @abc.abstractmethod
     def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,
               rng: np.random.Generator | None = None) -> Process:
         """Starting values for the free parameters from an empirical Haar WV (levels 1..J).
@@ -388,6 +469,7 @@ class Process:
         return {}
 
     @classmethod
+    @abc.abstractmethod
     def example(cls, freq: float) -> Process:
         """A typical instance at `freq` Hz (for documentation and the conformance kit):
         its time scales must be resolvable by simulations of ~2^16 samples."""
@@ -396,6 +478,15 @@ class Process:
 
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
+
+
+@functools.lru_cache(maxsize=None)
+def declares_block(cls: type[Process]) -> bool:
+    """Whether the family declares its state-space block: it overrides
+    :meth:`Process.continuous_block` or :meth:`Process.discrete_block`, or
+    :meth:`Process.white_variance` (a feed-through family without states)."""
+    return any(_overrides(cls, name) for name in ("continuous_block", "discrete_block",
+                                                  "white_variance"))
 
 
 def has_theoretical_wv(process: Process | type[Process]) -> bool:

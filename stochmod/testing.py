@@ -45,6 +45,17 @@ The checks (names as in :data:`CHECKS`):
     ``discrete_block``.
 ``wv_jacobian``
     ``wv_jacobian`` against Richardson-extrapolated central differences (rel 1e-5).
+``declarations``
+    every parameter declares a role (:data:`stochmod.params.ROLES`) and the scale role is
+    true (doubling the scale parameter multiplies the WV by ``2^d`` at every level, the rule
+    selection relies on); ``ordering_key`` is a finite float that depends on the values only;
+    ``lattice_copies``/``lattice_rank`` are non-negative integers; ``ieee952`` names only
+    coefficients of :data:`stochmod.coefficients.COEFFICIENTS`.
+``ieee952``
+    for each declared coefficient set, ``from_ieee952(to_ieee952(...))`` gives the instance
+    back (rel 1e-12), and a single IEEE coefficient (Q, N, K, R) gives the Allan line of the
+    reading (``2 wv`` against ``3 Q^2/tau^2``, ``N^2/tau``, ``K^2 tau/3``, ``R^2 tau^2/2`` at
+    ``m >= 64``, rel 1e-3). Skipped for families built from no reading.
 
 Combiners (plugin point ``stochmod_combiners``) are checked by :func:`check_combiner`
 (see :mod:`stochmod.combiner_checks`): weights sum to 1, equal inputs give the input back,
@@ -66,9 +77,10 @@ import numpy as np
 from scipy import integrate
 
 from stochmod._validation import check_freq, check_positive_int
+from stochmod.coefficients import COEFFICIENTS
 from stochmod.combiner_checks import check_combiner
 from stochmod.errors import DomainError, InputError
-from stochmod.params import get_domain, pacf_to_ar
+from stochmod.params import ROLES, get_domain, pacf_to_ar
 from stochmod.process import Process, as_generator, simulate_block
 from stochmod.reporting import format_number, format_table
 from stochmod.statespace import StateSpaceBlock, compose_steps
@@ -94,6 +106,8 @@ __all__ = [
     "check_weighting",
     "check_reader",
     "check_combiner",
+    "check_declarations",
+    "check_ieee952",
 ]
 
 
@@ -695,6 +709,93 @@ def check_wv_jacobian(process: Process | type[Process], freq: float = 100.0, *, 
             "max_rel_error": float(np.max(err / norm))}
 
 
+def check_declarations(process: Process | type[Process], freq: float = 100.0, *,
+                       rng: RngLike = 0) -> Figures:
+    """Roles on every parameter and a true scale role; a finite, value-only ordering key;
+    valid lattice declarations and coefficient names."""
+    freq = check_freq(freq)
+    p = _instance(process, freq)
+    cls = type(p)
+    missing = [s.name for s in p.parameters() if s.role not in ROLES]
+    if missing:
+        raise AssertionError(f"{p.family}: parameter(s) {missing} declare no role; give "
+                             f"Parameter(..., role=...) one of {list(ROLES)}")
+    figures: Figures = {}
+    scale = p.scale_parameter()
+    if scale is not None:
+        spec, power = scale
+        levels = 10
+        base = np.asarray(p.wv(levels, freq), float)
+        doubled = np.asarray(p.with_values(**{spec.name: 2.0 * getattr(p, spec.name)}).wv(levels, freq),
+                             float)
+        figures["scale_rel_error"] = _assert_close(
+            doubled, 2.0**power * base, rtol=1e-9, atol=1e-300,
+            what=(f"{p.family}: wv with {spec.name} doubled vs 2^{power} wv (role "
+                  f"{spec.role!r} says the WV is proportional to {spec.name}^{power})"))
+        figures["scale_power"] = power
+    key = p.ordering_key()
+    if not (isinstance(key, (float, int, np.floating)) and math.isfinite(key)):
+        raise AssertionError(f"{p.family}: ordering_key() = {key!r} is not a finite number")
+    again = p.from_vector(p.vector()).ordering_key()
+    if again != key:
+        raise AssertionError(f"{p.family}: ordering_key() changed from {key!r} to {again!r} on a "
+                             "copy with the same values")
+    figures["ordering_key"] = float(key)
+    for name in ("lattice_copies", "lattice_rank"):
+        value = getattr(cls, name)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise AssertionError(f"{p.family}: {name} = {value!r} must be a non-negative int")
+    figures["lattice_copies"] = cls.lattice_copies
+    bad = [n for names in cls.ieee952 for n in names if n not in COEFFICIENTS]
+    if bad:
+        raise AssertionError(f"{p.family}: ieee952 names {bad}, not coefficients of "
+                             f"stochmod.coefficients.COEFFICIENTS {list(COEFFICIENTS)}")
+    return figures
+
+
+#: The Allan-variance line of a single IEEE 952 coefficient c at tau (s) (the reading's table).
+_ALLAN_LINES: dict[str, Callable[[float, np.ndarray], np.ndarray]] = {
+    "Q": lambda c, tau: 3.0 * c**2 / tau**2,
+    "N": lambda c, tau: c**2 / tau,
+    "K": lambda c, tau: c**2 * tau / 3.0,
+    "R": lambda c, tau: c**2 * tau**2 / 2.0,
+}
+
+
+def check_ieee952(process: Process | type[Process], freq: float = 100.0, *,
+                  rng: RngLike = 0) -> Figures:
+    """``from_ieee952(to_ieee952())`` round trips for every declared set; single IEEE
+    coefficients give the reading's Allan line (``2 wv`` at m >= 64, rel 1e-3)."""
+    freq = check_freq(freq)
+    p = _instance(process, freq)
+    cls = type(p)
+    if not cls.ieee952:
+        raise NotApplicable(f"{p.family} is built from no classical-reading coefficients")
+    figures: Figures = {}
+    for names in cls.ieee952:
+        coefs = p.to_ieee952(freq, names)
+        if set(coefs) != set(names):
+            raise AssertionError(f"{p.family}: to_ieee952({names}) gave {sorted(coefs)}")
+        back = cls.from_ieee952(coefs, freq)
+        if type(back) is not cls:
+            raise AssertionError(f"{p.family}: from_ieee952 built a {type(back).__name__}")
+        label = "+".join(names)
+        figures[f"{label}_rel_error"] = _assert_close(
+            back.vector(), p.vector(), rtol=1e-12, atol=1e-300,
+            what=f"{p.family}: from_ieee952(to_ieee952({names}))")
+        if len(names) == 1 and names[0] in _ALLAN_LINES:
+            levels = 14
+            m = 2.0 ** np.arange(levels)
+            deep = m >= 64
+            tau = m[deep] / freq
+            line = _ALLAN_LINES[names[0]](float(coefs[names[0]]), tau)
+            av = 2.0 * np.asarray(p.wv(levels, freq), float)[deep]
+            figures[f"{label}_line_rel_error"] = _assert_close(
+                av, line, rtol=1e-3, atol=0.0,
+                what=f"{p.family}: Allan variance (2 wv) vs the {names[0]} line of the reading")
+    return figures
+
+
 # ---------------------------------------------------------------------------- the kit
 #: Check name -> (function, options it accepts from :func:`check_family`).
 CHECKS: Mapping[str, tuple[Callable[..., Figures], tuple[str, ...]]] = {
@@ -709,6 +810,8 @@ CHECKS: Mapping[str, tuple[Callable[..., Figures], tuple[str, ...]]] = {
     "state_space": (check_state_space, ("n_mc", "n_ss")),
     "rediscretisation": (check_rediscretisation, ()),
     "wv_jacobian": (check_wv_jacobian, ()),
+    "declarations": (check_declarations, ()),
+    "ieee952": (check_ieee952, ()),
 }
 
 

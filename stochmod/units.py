@@ -42,7 +42,7 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import _as_float_array, check_freq
+from stochmod._validation import check_freq, checked_values, scalar_or_array
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
 
@@ -69,11 +69,6 @@ __all__ = [
     "one_sided_density",
     "bi_floor",
     "bi_from_floor",
-    "GMDiscrete",
-    "gm_discretize",
-    "gm_from_discrete",
-    "gm_from_bias_instability",
-    "gm_driving_psd",
     "cep_to_sigma",
     "sigma_to_cep",
 ]
@@ -401,28 +396,11 @@ def parse_unit(unit: str) -> Unit:
 
 # ---------------------------------------------------------------- conversion
 
-def _values(x: ArrayLike, name: str, *, sign: Literal["any", "nonneg", "pos"] = "any"
-            ) -> tuple[np.ndarray, bool]:
-    """Finite float64 array and whether the input was a scalar; checks the sign asked for."""
-    arr = _as_float_array(x, name)
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{name} must be finite, got {x!r}")
-    if sign == "nonneg" and np.any(arr < 0):
-        raise InputError(f"{name} must be non-negative, got {x!r}")
-    if sign == "pos" and np.any(arr <= 0):
-        raise InputError(f"{name} must be positive, got {x!r}")
-    return arr, arr.ndim == 0
-
-
 def _positive_scalar(x: float, name: str) -> float:
-    arr, scalar = _values(x, name, sign="pos")
+    arr, scalar = checked_values(x, name, sign="pos")
     if not scalar:
         raise InputError(f"{name} must be a single number, got {x!r}")
     return float(arr)
-
-
-def _out(arr: np.ndarray, scalar: bool) -> float | np.ndarray:
-    return float(arr) if scalar else arr
 
 
 def _checked_unit(unit: str, kind: str | None) -> Unit:
@@ -471,15 +449,15 @@ def to_si(value: ArrayLike, unit: str, kind: str | None = None) -> float | np.nd
         Unknown or malformed unit, kind mismatch, non-finite value or wrong sign.
     """
     parsed = _checked_unit(unit, kind)
-    arr, scalar = _values(value, "value", sign=_sign_for(kind))
-    return _out(arr * parsed.scale, scalar)
+    arr, scalar = checked_values(value, "value", sign=_sign_for(kind))
+    return scalar_or_array(arr * parsed.scale, scalar)
 
 
 def from_si(value: ArrayLike, unit: str, kind: str | None = None) -> float | np.ndarray:
     """Convert a value in SI to `unit` (the inverse of :func:`to_si`; same arguments)."""
     parsed = _checked_unit(unit, kind)
-    arr, scalar = _values(value, "value", sign=_sign_for(kind))
-    return _out(arr / parsed.scale, scalar)
+    arr, scalar = checked_values(value, "value", sign=_sign_for(kind))
+    return scalar_or_array(arr / parsed.scale, scalar)
 
 
 def convert(value: ArrayLike, from_unit: str, to_unit: str, kind: str | None = None
@@ -495,8 +473,8 @@ def convert(value: ArrayLike, from_unit: str, to_unit: str, kind: str | None = N
             f"cannot convert {from_unit!r} ({src.kind}, {src.si}) "
             f"to {to_unit!r} ({dst.kind}, {dst.si})"
         )
-    arr, scalar = _values(value, "value", sign=_sign_for(kind))
-    return _out(arr * (src.scale / dst.scale), scalar)
+    arr, scalar = checked_values(value, "value", sign=_sign_for(kind))
+    return scalar_or_array(arr * (src.scale / dst.scale), scalar)
 
 
 # ---------------------------------------------------------------- per-sample values
@@ -518,15 +496,15 @@ def wn_variance(n: ArrayLike, fs: float) -> float | np.ndarray:
         m/s/sqrt(h)) and ``1/dt = fs``; Gonzalez et al. (2015) divide the PSD ``n^2`` by dt alike.
     """
     fs = check_freq(fs, name="fs")
-    arr, scalar = _values(n, "N", sign="nonneg")
-    return _out(arr * arr * fs, scalar)
+    arr, scalar = checked_values(n, "N", sign="nonneg")
+    return scalar_or_array(arr * arr * fs, scalar)
 
 
 def wn_density(sigma2: ArrayLike, fs: float) -> float | np.ndarray:
     """White noise density N (u/sqrt(Hz)) from its per-sample variance `sigma2` (u^2) at `fs` Hz."""
     fs = check_freq(fs, name="fs")
-    arr, scalar = _values(sigma2, "sigma2", sign="nonneg")
-    return _out(np.sqrt(arr / fs), scalar)
+    arr, scalar = checked_values(sigma2, "sigma2", sign="nonneg")
+    return scalar_or_array(np.sqrt(arr / fs), scalar)
 
 
 def rw_variance(k: ArrayLike, fs: float) -> float | np.ndarray:
@@ -546,15 +524,15 @@ def rw_variance(k: ArrayLike, fs: float) -> float | np.ndarray:
         eq. 30 is this with K in m/s/h^1.5, i.e. ``K^2 dt / 3600^3``.
     """
     fs = check_freq(fs, name="fs")
-    arr, scalar = _values(k, "K", sign="nonneg")
-    return _out(arr * arr / fs, scalar)
+    arr, scalar = checked_values(k, "K", sign="nonneg")
+    return scalar_or_array(arr * arr / fs, scalar)
 
 
 def rw_density(q: ArrayLike, fs: float) -> float | np.ndarray:
     """Random walk coefficient K (u/sqrt(s)) from its increment variance `q` (u^2) at `fs` Hz."""
     fs = check_freq(fs, name="fs")
-    arr, scalar = _values(q, "q", sign="nonneg")
-    return _out(np.sqrt(arr * fs), scalar)
+    arr, scalar = checked_values(q, "q", sign="nonneg")
+    return scalar_or_array(np.sqrt(arr * fs), scalar)
 
 
 def two_sided_density(one_sided: ArrayLike) -> float | np.ndarray:
@@ -563,14 +541,14 @@ def two_sided_density(one_sided: ArrayLike) -> float | np.ndarray:
     stochmod's N (and IEEE's, and Gonzalez eq. 2) is the square root of the two-sided PSD.
     A spectrum-analyser reading ``d`` (one-sided, u/sqrt(Hz)) of the same noise is ``sqrt(2) N``.
     """
-    arr, scalar = _values(one_sided, "one_sided", sign="nonneg")
-    return _out(arr / math.sqrt(2.0), scalar)
+    arr, scalar = checked_values(one_sided, "one_sided", sign="nonneg")
+    return scalar_or_array(arr / math.sqrt(2.0), scalar)
 
 
 def one_sided_density(n: ArrayLike) -> float | np.ndarray:
     """Root of the one-sided PSD of white noise of (two-sided) density N: ``sqrt(2) N``."""
-    arr, scalar = _values(n, "N", sign="nonneg")
-    return _out(arr * math.sqrt(2.0), scalar)
+    arr, scalar = checked_values(n, "N", sign="nonneg")
+    return scalar_or_array(arr * math.sqrt(2.0), scalar)
 
 
 def bi_floor(b: ArrayLike, factor: float = BI_FACTOR) -> float | np.ndarray:
@@ -580,8 +558,8 @@ def bi_floor(b: ArrayLike, factor: float = BI_FACTOR) -> float | np.ndarray:
     :data:`BI_FACTOR_IEEE` = 0.664 (eq. 18) and take this floor as the stationary sigma of the
     first-order GM that models B (eq. 29, ``sigma_GM = 0.664 B``).
     """
-    arr, scalar = _values(b, "B", sign="nonneg")
-    return _out(arr * _positive_scalar(factor, "factor"), scalar)
+    arr, scalar = checked_values(b, "B", sign="nonneg")
+    return scalar_or_array(arr * _positive_scalar(factor, "factor"), scalar)
 
 
 def bi_from_floor(floor: ArrayLike, factor: float = BI_FACTOR) -> float | np.ndarray:
@@ -589,218 +567,8 @@ def bi_from_floor(floor: ArrayLike, factor: float = BI_FACTOR) -> float | np.nda
 
     Quinchia eq. 18: a floor of 29.57 deg/h with factor 0.664 gives B = 44.533 deg/h.
     """
-    arr, scalar = _values(floor, "floor", sign="nonneg")
-    return _out(arr / _positive_scalar(factor, "factor"), scalar)
-
-
-GMMethod = Literal["exact", "euler", "quinchia2013"]
-
-
-@attrs.frozen
-class GMDiscrete:
-    """A first-order Gauss-Markov process and its discrete form at a sampling frequency.
-
-    ``x[k] = phi * x[k-1] + w[k]``, ``var w[k] = q``; the continuous process is
-    ``dx/dt = -beta x + w(t)`` with stationary variance ``sigma2``.
-
-    Attributes
-    ----------
-    sigma2 : float or ndarray
-        Stationary variance of the continuous process, u^2.
-    beta : float or ndarray
-        Inverse correlation time 1/Tc, 1/s.
-    fs : float
-        Sampling frequency, Hz.
-    phi : float or ndarray
-        Transition coefficient (exact: ``exp(-beta/fs)``).
-    q : float or ndarray
-        Innovation (driving noise) variance per sample, u^2 (exact: ``sigma2 (1 - phi^2)``).
-    method : str
-        ``"exact"``, ``"euler"`` or ``"quinchia2013"`` (see :func:`gm_discretize`).
-    """
-
-    sigma2: float | np.ndarray
-    beta: float | np.ndarray
-    fs: float
-    phi: float | np.ndarray
-    q: float | np.ndarray
-    method: str = "exact"
-
-    @property
-    def sigma(self) -> float | np.ndarray:
-        """Stationary standard deviation, u."""
-        if isinstance(self.sigma2, np.ndarray):
-            return np.sqrt(self.sigma2)
-        return math.sqrt(self.sigma2)
-
-    @property
-    def tc(self) -> float | np.ndarray:
-        """Correlation time Tc = 1/beta, s."""
-        return 1.0 / self.beta
-
-    @property
-    def stationary_variance(self) -> float | np.ndarray:
-        """Stationary variance of the discrete chain, ``q / (1 - phi^2)``, u^2.
-
-        Equals :attr:`sigma2` for the exact method only; the first-order forms give
-        ``sigma2 / (1 - beta/(2 fs))`` (euler) and about ``sigma2 (1 - beta/(2 fs))``
-        (quinchia2013).
-        """
-        return self.q / ((1.0 - self.phi) * (1.0 + self.phi))
-
-    def summary(self) -> str:
-        """Table of Tc, sigma, beta, phi and q (one row per element for array fields)."""
-        cols = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (
-            self.tc, self.sigma, self.beta, self.phi, self.q)))
-        rows = [list(r) for r in zip(*(c.ravel() for c in cols))]
-        return format_table(
-            ["Tc [s]", "sigma [u]", "beta [1/s]", "phi", "q [u^2]"], rows,
-            title=f"Gauss-Markov at fs = {self.fs:g} Hz ({self.method})",
-            digits=9,
-        )
-
-
-def _gm_result(sigma2: np.ndarray, beta: np.ndarray, phi: np.ndarray, q: np.ndarray,
-               fs: float, method: str, scalar: bool) -> GMDiscrete:
-    """A GMDiscrete with all fields broadcast to one shape (floats for scalar input)."""
-    fields = np.broadcast_arrays(sigma2, beta, phi, q)
-    out = [_out(np.array(v, dtype=float), scalar) for v in fields]
-    return GMDiscrete(sigma2=out[0], beta=out[1], fs=fs, phi=out[2], q=out[3], method=method)
-
-
-def _gm_inputs(sigma: ArrayLike, tc: ArrayLike, fs: float
-               ) -> tuple[np.ndarray, np.ndarray, float, bool]:
-    fs = check_freq(fs, name="fs")
-    s, s_scalar = _values(sigma, "sigma", sign="nonneg")
-    t, t_scalar = _values(tc, "tc", sign="pos")
-    return s, t, fs, s_scalar and t_scalar
-
-
-def gm_discretize(sigma: ArrayLike, tc: ArrayLike, fs: float, method: GMMethod = "exact"
-                  ) -> GMDiscrete:
-    """Discrete form of a first-order Gauss-Markov process at sampling frequency `fs`.
-
-    Parameters
-    ----------
-    sigma : float or array_like
-        Stationary standard deviation, u (rad/s or m/s^2), >= 0.
-    tc : float or array_like
-        Correlation time Tc, s, > 0.
-    fs : float
-        Sampling frequency, Hz, > 0.
-    method : {"exact", "euler", "quinchia2013"}
-        ``"exact"``: ``phi = exp(-beta/fs)``, ``q = sigma^2 (1 - phi^2)`` -- the sampled process
-        has exactly the continuous autocovariance ``sigma^2 exp(-beta |tau|)``.
-        ``"euler"``: ``phi = 1 - beta/fs``, ``q = 2 beta sigma^2 / fs`` (Quinchia eqs. 2 and 4 times
-        dt; Gonzalez Alg. 1 lines 2-3 ``Phi = I + F dt``, ``Q_k = Q dt``), first order in beta/fs.
-        ``"quinchia2013"``: ``phi = 1 - beta/fs`` with the exact ``q`` (Quinchia eqs. 2-3, and
-        Appendix eqs. 21 and 28).  Both first-order forms need ``Tc * fs > 1``.
-
-    Returns
-    -------
-    GMDiscrete
-    """
-    s, t, fs, scalar = _gm_inputs(sigma, tc, fs)
-    x = 1.0 / (t * fs)  # beta * dt
-    sigma2 = s * s
-    if method == "exact":
-        phi, q = np.exp(-x), -sigma2 * np.expm1(-2.0 * x)
-    elif method in ("euler", "quinchia2013"):
-        if np.any(x >= 1.0):
-            raise InputError(
-                f"method={method!r} needs Tc * fs > 1 (its phi = 1 - 1/(Tc fs) must be positive); "
-                f"got Tc * fs = {np.min(t) * fs:g}; use method='exact'"
-            )
-        phi = 1.0 - x
-        q = 2.0 * x * sigma2 if method == "euler" else -sigma2 * np.expm1(-2.0 * x)
-    else:
-        raise InputError(f"method must be 'exact', 'euler' or 'quinchia2013', got {method!r}")
-    return _gm_result(sigma2, 1.0 / t, phi, q, fs, method, scalar)
-
-
-def gm_from_discrete(phi: ArrayLike, q: ArrayLike, fs: float) -> GMDiscrete:
-    """Recover a Gauss-Markov process from its exact discrete form (an AR(1) with 0 < phi < 1).
-
-    Parameters
-    ----------
-    phi : float or array_like
-        AR(1) coefficient, in (0, 1).  Quinchia's Table 2 prints ``alpha_1 = -phi``.
-    q : float or array_like
-        Innovation variance per sample, u^2, >= 0.
-    fs : float
-        Sampling frequency, Hz, > 0.
-
-    Returns
-    -------
-    GMDiscrete
-        ``beta = -ln(phi) fs``, ``sigma2 = q / (1 - phi^2)``.  The relative error of beta is
-        about ``eps / (beta/fs)``: a phi very close to 1 carries few digits of beta.
-    """
-    fs = check_freq(fs, name="fs")
-    p, p_scalar = _values(phi, "phi")
-    qq, q_scalar = _values(q, "q", sign="nonneg")
-    if np.any((p <= 0) | (p >= 1)):
-        raise InputError(
-            f"phi must lie in the open interval (0, 1) for a Gauss-Markov process, got {phi!r}"
-        )
-    scalar = p_scalar and q_scalar
-    sigma2 = qq / ((1.0 - p) * (1.0 + p))
-    return _gm_result(sigma2, -np.log(p) * fs, p, qq, fs, "exact", scalar)
-
-
-def gm_from_bias_instability(b: ArrayLike, tc: ArrayLike, fs: float, *,
-                             factor: float = BI_FACTOR, method: GMMethod = "exact") -> GMDiscrete:
-    """The Gauss-Markov model of a bias instability B as Quinchia et al. (2013) build it.
-
-    ``sigma_GM = factor * B`` (eq. 29, with ``factor = 0.664`` there: the GM's stationary sigma
-    is set to the flat Allan-deviation floor), then :func:`gm_discretize`.
-
-    Parameters
-    ----------
-    b : float or array_like
-        Bias instability B in u (rad/s or m/s^2), >= 0.
-    tc : float or array_like
-        Correlation time read from the Allan variance, s, > 0.
-    fs : float
-        Sampling frequency, Hz, > 0.
-    factor : float
-        Floor / B ratio; :data:`BI_FACTOR` (exact) or :data:`BI_FACTOR_IEEE` (0.664, the paper's).
-    method : {"exact", "euler", "quinchia2013"}
-        See :func:`gm_discretize`.  Quinchia's Appendix uses ``"quinchia2013"``.
-    """
-    return gm_discretize(bi_floor(b, factor), tc, fs, method=method)
-
-
-def gm_driving_psd(sigma: ArrayLike, tc: ArrayLike,
-                   form: Literal["exact", "gonzalez2015"] = "exact") -> float | np.ndarray:
-    """PSD of the white noise driving ``dx/dt = -x/Tc + w`` for a GM of stationary sigma.
-
-    Parameters
-    ----------
-    sigma : float or array_like
-        Stationary standard deviation, u, >= 0.
-    tc : float or array_like
-        Correlation time, s, > 0.
-    form : {"exact", "gonzalez2015"}
-        ``"exact"``: ``2 sigma^2 / Tc`` in u^2/s (Quinchia eq. 4, ``2 beta sigma^2``): the only
-        value for which the stationary variance ``q Tc / 2`` equals ``sigma^2``.
-        ``"gonzalez2015"``: ``sigma^2 Tc`` (u^2 s) as printed in Gonzalez et al. (2015) eq. 22;
-        it is not dimensionally a driving PSD and gives the variance ``sigma^2 Tc^2 / 2``.
-        Kept only to reproduce that paper.
-
-    Returns
-    -------
-    float or ndarray
-    """
-    s, s_scalar = _values(sigma, "sigma", sign="nonneg")
-    t, t_scalar = _values(tc, "tc", sign="pos")
-    if form == "exact":
-        psd = 2.0 * s * s / t
-    elif form == "gonzalez2015":
-        psd = s * s * t
-    else:
-        raise InputError(f"form must be 'exact' or 'gonzalez2015', got {form!r}")
-    return _out(np.asarray(psd, dtype=float), s_scalar and t_scalar)
+    arr, scalar = checked_values(floor, "floor", sign="nonneg")
+    return scalar_or_array(arr / _positive_scalar(factor, "factor"), scalar)
 
 
 # ---------------------------------------------------------------- GNSS accuracy
@@ -830,11 +598,30 @@ def cep_to_sigma(cep: ArrayLike, p: float = 0.5) -> float | np.ndarray:
         ``cep / sqrt(-2 ln(1 - p))``; for the CEP, ``cep / sqrt(2 ln 2) = 0.849322 cep``
         (Gonzalez prints 0.8493).
     """
-    arr, scalar = _values(cep, "cep", sign="nonneg")
-    return _out(arr / _radial_factor(p), scalar)
+    arr, scalar = checked_values(cep, "cep", sign="nonneg")
+    return scalar_or_array(arr / _radial_factor(p), scalar)
 
 
 def sigma_to_cep(sigma: ArrayLike, p: float = 0.5) -> float | np.ndarray:
     """Circular error radius (m) holding a fraction `p` of the errors, from per-axis sigma (m)."""
-    arr, scalar = _values(sigma, "sigma", sign="nonneg")
-    return _out(arr * _radial_factor(p), scalar)
+    arr, scalar = checked_values(sigma, "sigma", sign="nonneg")
+    return scalar_or_array(arr * _radial_factor(p), scalar)
+
+
+#: Names that moved to the plugin of the family they describe (the first-order Gauss-Markov
+#: conversions live beside that family, in one place); still reachable here.
+_PLUGIN_NAMES = ("GMDiscrete", "gm_discretize", "gm_from_discrete", "gm_from_bias_instability",
+                 "gm_driving_psd")
+
+
+def __getattr__(name: str) -> object:
+    """The conversions of :data:`_PLUGIN_NAMES`, from the registered plugin that exports them."""
+    if name in _PLUGIN_NAMES:
+        from stochmod.registry import plugin_manager
+
+        for plugin in plugin_manager().get_plugins():
+            if hasattr(plugin, name):
+                return getattr(plugin, name)
+        raise AttributeError(f"stochmod.units.{name} comes from the plugin of the first-order "
+                             "Gauss-Markov family, which is not registered")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

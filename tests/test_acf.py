@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 from statsmodels.tsa.stattools import acf as sm_acf
 
-from stochmod.errors import EstimationError, InputError, UnknownProcessError
+from stochmod.classical import acf_model
+from stochmod.errors import EstimationError, InputError
 from stochmod.signal.acf import acf, acovf, fit_gm_acf
 
 
@@ -103,23 +104,25 @@ def test_never_reaching_one_over_e_gives_nan_and_refuses_a_model():
     fit = fit_gm_acf(rw, 1.0, max_lag=10)
     assert math.isnan(fit.tc) and math.isnan(fit.beta)
     assert any("never drops below 1/e" in c for c in fit.caveats)
-    with pytest.raises(EstimationError, match="no usable GM"):
-        fit.to_spec()
+    with pytest.raises(EstimationError, match="no usable exponential decay"):
+        fit.coefficient_values()
+    with pytest.raises(EstimationError, match="never drops below 1/e"):
+        acf_model(fit)
 
 
 def test_spec_and_model():
     freq = 100.0
     fit = fit_gm_acf(_gm(np.random.default_rng(8), 50_000, 5.0, 2.0, freq), freq)
-    spec = fit.to_spec()
+    assert fit.coefficient_values() == {"rate": fit.beta, "variance": fit.sigma2}
+    model = acf_model(fit)
     gm = {"family": "GM", "params": {"beta": fit.beta, "sigma2": fit.sigma2}}
-    assert spec == {"processes": [gm]}
-    assert fit.to_spec(use_ls=True)["processes"][0]["params"]["beta"] == fit.beta_ls
+    assert model.freq == freq and model.to_spec()["processes"] == [gm]
+    assert acf_model(fit, use_ls=True).processes[0].beta == fit.beta_ls
+    # the model's autocorrelation falls to 1/e at the fitted Tc, and the fit is near the truth
+    rho = model.processes[0].autocovariance(fit.tc * freq, freq) / fit.sigma2
+    assert rho == pytest.approx(math.exp(-1.0), rel=1e-12)
+    assert fit.beta == pytest.approx(5.0, rel=0.1) and fit.sigma2 == pytest.approx(2.0, rel=0.1)
     assert "Tc (1/e crossing)" in fit.summary()
-    try:
-        model = fit.to_model()
-    except (ImportError, UnknownProcessError) as exc:
-        pytest.skip(f"the GM family / composer is not available yet: {exc}")
-    assert model is not None
 
 
 @pytest.mark.parametrize(

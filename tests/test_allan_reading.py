@@ -3,7 +3,7 @@
 Truth: seeded simulations with known coefficients (white noise N, random walk K, first-order
 Gauss-Markov, flicker noise of two-sided PSD B^2 / (2 pi f) made by spectral shaping as in
 Stebler et al. (2014) Table I, quantization X_t = sqrt(12 Q2)(U_t - U_{t-1})); exact discrete
-Allan variances of the per-sample models of ``to_spec`` computed from their autocovariances;
+Allan variances of the per-sample models of ``stochmod.classical.allan_model`` computed from their autocovariances;
 the maximum of the Gauss-Markov AV found numerically with mpmath; the R gmwm package's
 wavelet variance of the real ADIS16405 gyro (``../shared/data/reference``).
 
@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
+from stochmod.classical import allan_model
 from stochmod.errors import EstimationError, InputError
 from stochmod.signal.allan import avar
 from stochmod.signal.allan_reading import (
@@ -200,12 +201,16 @@ def _exact_discrete_av(acov, m: int) -> float:
     return 0.5 * float(w @ acov(lags) @ w)
 
 
-def test_to_spec_per_sample_parameters_give_the_ieee_lines():
+def _spec(reading, freq=None):
+    return {p["family"]: p["params"] for p in allan_model(reading, freq).to_spec()["processes"]}
+
+
+def test_model_per_sample_parameters_give_the_ieee_lines():
     rng = np.random.default_rng(1008)
     x = (quantization(rng, 400_000, 1e-4) + white(rng, 400_000, 1e-4)
          + 2e-6 * np.arange(400_000) / FS)
     r = allan_reading(x, FS, regions={"Q": (0.01, 0.3), "N": (5.0, 20.0), "R": (300.0, 1000.0)})
-    spec = {p["family"]: p["params"] for p in r.to_spec()["processes"]}
+    spec = _spec(r)
     q2, s2, omega = spec["QN"]["Q2"], spec["WN"]["sigma2"], spec["RR"]["omega"]
     for m in (1, 3, 10):
         tau = m / FS
@@ -218,35 +223,31 @@ def test_to_spec_per_sample_parameters_give_the_ieee_lines():
         assert 0.5 * (omega * m) ** 2 == pytest.approx(r.R.value**2 * tau**2 / 2, rel=1e-12)
 
 
-def test_to_spec_random_walk_and_gm_conventions():
+def test_model_random_walk_and_gm_conventions():
     rng = np.random.default_rng(1009)
     x = white(rng, 300_000, 1e-3) + flicker(rng, 300_000, 2e-3) + random_walk(rng, 300_000, 3e-4)
     r = allan_reading(x, FS, regions={"K": (300.0, 1000.0)})
     assert r.B is not None and r.Tc is not None
-    spec = {p["family"]: p["params"] for p in r.to_spec(50.0)["processes"]}
+    assert r.coefficient_values() == {"N": r.N.value, "B": r.B.value, "Tc": r.Tc, "K": r.K.value}
+    spec = _spec(r, 50.0)
     assert spec["RW"]["sigma2"] == pytest.approx(r.K.value**2 / 50.0, rel=1e-12)
     assert spec["WN"]["sigma2"] == pytest.approx(r.N.value**2 * 50.0, rel=1e-12)
     # Quinchia eqs. 29 and Table 5: sigma_GM = 0.664 B (the flat deviation), beta = 1 / Tc
     assert math.sqrt(spec["GM"]["sigma2"]) == pytest.approx(BI * r.B.value, rel=1e-12)
     assert spec["GM"]["beta"] == pytest.approx(1.0 / r.Tc, rel=1e-12)
-    matched = {p["family"]: p["params"]
-               for p in allan_reading(x, FS, regions={"K": (300.0, 1000.0)},
-                                      gm="matched").to_spec(50.0)["processes"]}
+    matched = _spec(allan_reading(x, FS, regions={"K": (300.0, 1000.0)}, gm="matched"), 50.0)
     # the matched GM's AV peak, 0.3811 sigma^2 at 1.8926 / beta, is the flat level at Tc
     assert GM_PEAK_AV * matched["GM"]["sigma2"] == pytest.approx(BI**2 * r.B.value**2, rel=1e-12)
     assert GM_PEAK_X / matched["GM"]["beta"] == pytest.approx(r.Tc, rel=1e-12)
 
 
-def test_to_model_reproduces_the_lines():
+def test_model_reproduces_the_lines():
     rng = np.random.default_rng(1010)
     x = white(rng, 400_000, 1e-3) + random_walk(rng, 400_000, 1e-3)
     r = allan_reading(x, FS)
-    try:
-        model = r.to_model()
-        wv = np.asarray(model.wv(16))
-    except Exception as exc:  # noqa: BLE001 - the composer or the plugins may be missing
-        pytest.skip(f"stochmod.model_from_spec / the WN, RW plugins are not usable yet: {exc}")
-    assert [p.family for p in model.processes] == ["WN", "RW"]
+    model = allan_model(r)
+    wv = np.asarray(model.wv(16))
+    assert [p.family for p in model.processes] == ["WN", "RW"] and model.freq == FS
     # the Haar wavelet variance is half the Allan variance; the discrete random walk adds
     # K^2 tau / 3 * 1/(2 m^2) to the line, negligible from m = 16 on
     m = 2.0 ** np.arange(16)

@@ -15,7 +15,8 @@ from statsmodels.regression.linear_model import burg as sm_burg
 from statsmodels.regression.linear_model import yule_walker as sm_yule_walker
 from statsmodels.tsa.stattools import pacf_burg
 
-from stochmod.errors import EstimationError, InputError, UnknownProcessError
+from stochmod.classical import ar_model
+from stochmod.errors import EstimationError, InputError
 from stochmod.signal.ar_fit import (
     ar_roots_modulus,
     burg,
@@ -153,13 +154,14 @@ def test_summary_dict_and_spec():
     assert "AR(1) by burg" in fit.summary()
     d = fit.to_dict()
     assert d["order"] == 1 and d["phi"] == fit.phi.tolist()
-    ar = {"family": "AR", "params": {"phi": [fit.phi[0]], "sigma2": fit.sigma2}}
-    assert fit.to_spec() == {"processes": [ar]}
-    try:
-        model = fit.to_model()
-    except (ImportError, UnknownProcessError) as exc:
-        pytest.skip(f"the AR family / composer is not available yet: {exc}")
-    assert model is not None
+    assert fit.coefficient_values() == {"ar": (fit.phi[0],), "innovation": fit.sigma2}
+    model = ar_model(fit)
+    ar = {"family": "AR", "params": {"phi": [fit.phi[0]], "sigma2": fit.sigma2}, "order": 1}
+    assert model.freq == 100.0 and model.to_spec()["processes"] == [ar]
+    # the model's lag-1 autocorrelation is the fitted phi (AR(1)), near the simulated 0.7
+    p = model.processes[0]
+    assert p.autocovariance(1, 100.0) / p.autocovariance(0, 100.0) == pytest.approx(fit.phi[0], rel=1e-12)
+    assert fit.phi[0] == pytest.approx(0.7, abs=0.03)
 
 
 @pytest.mark.parametrize(

@@ -77,7 +77,7 @@ def test_calibrate_scale_is_equivariant(gm_wn_file, tmp_path, capsys):
 def test_calibrate_lattice_and_json_output_match_the_file(gm_wn_file, tmp_path, capsys):
     out = tmp_path / "lat"
     printed = run_json(["calibrate", str(gm_wn_file), "--freq", "50", "--families", "GM", "WN",
-                        "--max-gm", "2", "--out", str(out), "--no-plots", "--json"], capsys)
+                        "--max-count", "GM=2", "--out", str(out), "--no-plots", "--json"], capsys)
     assert printed == json.loads((out / "calibration.json").read_text())
     ranking = printed["columns"]["0"]["ranking"]
     assert sorted(r["model"] for r in ranking) == sorted(["GM", "2*GM", "WN", "GM+WN", "2*GM+WN"])

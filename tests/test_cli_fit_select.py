@@ -81,6 +81,15 @@ def test_select_unknown_family_is_a_one_line_error(two_columns, capsys):
     assert "XYZ" in capsys.readouterr().err
 
 
+def test_select_max_count_option(two_columns, capsys):
+    base = ["select", str(two_columns), "--freq", "100", "--column", "white", "--levels", "8"]
+    out = run_json(base + ["--families", "WN", "RW", "--max-count", "RW=0", "--json"], capsys)
+    assert [r["model"] for r in out["columns"]["white"]["ranking"]] == ["WN"]
+    for bad in ("RW", "RW=x", "=2", "RW=-1"):
+        assert main(base + ["--families", "WN", "RW", "--max-count", bad]) == 2
+        assert "--max-count" in capsys.readouterr().err
+
+
 def test_processes_lists_every_registered_family(capsys):
     out = run_json(["processes", "--json"], capsys)["processes"]
     assert [p["family"] for p in out] == stochmod.process_names()

@@ -26,7 +26,18 @@ class Toy(Process):
 
     a: float | None = None
     family: ClassVar[str] = "TOYREG"
-    parameter_specs: ClassVar[tuple[Parameter, ...]] = (Parameter("a", "positive", "u^2"),)
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("a", "positive", "u^2", role="variance"),)
+
+    def white_variance(self, freq):
+        return float(self.a)
+
+    def start(self, wv, freq, *, index=0, count=1, rng=None):
+        return self.with_values(a=2.0 * float(wv[0]))
+
+    @classmethod
+    def example(cls, freq):
+        return cls(a=1.0)
 
 
 @attrs.frozen

@@ -1,4 +1,4 @@
-"""Classical pipelines (stochmod.signal.pipelines) on seeded simulations with known parameters.
+"""Classical pipelines (stochmod.classical.pipelines) on seeded simulations with known parameters.
 
 Tolerances: ``|bias| + 4 sd`` of the estimate / truth over 100 seeded replications of the same
 case, or the largest deviation seen in them if larger (``python bench/compare_methods.py
@@ -16,9 +16,9 @@ import pytest
 
 import stochmod as sm
 from stochmod.errors import EstimationError, InputError, SpecError
-from stochmod.signal import pipelines
+from stochmod.classical import ar_model, pipelines
 from stochmod.signal.ar_fit import fit_ar
-from stochmod.signal.pipelines import (
+from stochmod.classical.pipelines import (
     acf_gm_model,
     av_model,
     avwd_model,
@@ -78,7 +78,7 @@ def case_a() -> dict:
     x = sm.model_from_spec(spec_a(), FS).simulate(N_SAMPLES, 1)
     out = {"x": x, "AV": av_model(x, FS), "AVWD": avwd_model(x, FS, f_limit=0.4),
            "PSD": psd_model(x, FS), "WD+AR(3)": denoised_ar_model(x, FS, 3),
-           "Burg AR(3)": fit_ar(x, FS, 3).to_model(FS), "GMWM": sm.gmwm(x, "WN+GM+RW", FS)}
+           "Burg AR(3)": ar_model(fit_ar(x, FS, 3), FS), "GMWM": sm.gmwm(x, "WN+GM+RW", FS)}
     return out
 
 
@@ -87,7 +87,7 @@ def case_b() -> dict:
     x = sm.model_from_spec(spec_b(), FS).simulate(N_SAMPLES, 1)
     return {"x": x, "AV": av_model(x, FS), "AVWD": avwd_model(x, FS, level=7),
             "PSD": psd_model(x, FS), "WD+AR(3)": denoised_ar_model(x, FS, 3),
-            "Burg AR(3)": fit_ar(x, FS, 3).to_model(FS), "GMWM": sm.gmwm(x, "WN+BI+RW", FS)}
+            "Burg AR(3)": ar_model(fit_ar(x, FS, 3), FS), "GMWM": sm.gmwm(x, "WN+BI+RW", FS)}
 
 
 def _physical(model: sm.Model) -> dict[str, float]:
@@ -231,7 +231,7 @@ def test_acf_gm_model_least_squares_recovers_the_gm(case_c):
 
 def test_denoised_ar_model_is_closer_than_raw_burg_but_describes_the_denoised_signal(case_c):
     wd = denoised_ar_model(case_c, FS, 1, level=3)
-    raw = fit_ar(case_c, FS, 1).to_model(FS)
+    raw = ar_model(fit_ar(case_c, FS, 1), FS)
     tc_wd = wd.model.processes[0].physical(FS)["Tc"].value
     tc_raw = raw.processes[0].physical(FS)["Tc"].value
     # Section 5.3's point: de-noising first reduces Burg's white-noise bias of Tc a lot ...

@@ -12,14 +12,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stochmod.errors import EstimationError, InputError, UnknownProcessError
+from stochmod.classical import psd_reading_model
+from stochmod.errors import EstimationError, InputError
 from stochmod.signal.psd import (
-    BIAS_AV_FACTOR,
     _bin_correlation,
     log_bin,
     psd,
     psd_reading,
 )
+from stochmod.units import BI_FACTOR
 
 FREQ = 100.0
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -109,7 +110,8 @@ def test_reading_white_noise_equals_truth_and_allan():
     assert r.N.value == pytest.approx(_allan_dev(x, 1.0) * 1.0, rel=0.04)
     assert r.B is None and r.K is None
     wn = {"family": "WN", "params": {"sigma2": pytest.approx(s2, rel=0.02)}}
-    assert r.to_spec()["processes"] == [wn]
+    assert r.coefficient_values() == {"N": r.N.value}
+    assert psd_reading_model(r).to_spec()["processes"] == [wn]
 
 
 def test_reading_random_walk_equals_truth_and_allan():
@@ -123,7 +125,7 @@ def test_reading_random_walk_equals_truth_and_allan():
     assert r.K.value == pytest.approx(_allan_dev(x, tau) * math.sqrt(3 / tau), rel=0.15)
     assert r.N is None and r.B is None
     rw = {"family": "RW", "params": {"sigma2": pytest.approx(q, rel=0.02)}}
-    assert r.to_spec()["processes"] == [rw]
+    assert psd_reading_model(r).to_spec()["processes"] == [rw]
 
 
 def test_reading_bias_instability_equals_truth_and_allan_flat():
@@ -132,8 +134,8 @@ def test_reading_bias_instability_equals_truth_and_allan_flat():
     r = psd_reading(x, FREQ)
     assert r.B.ci_low < b < r.B.ci_high
     # IEEE 952: the Allan deviation of bias instability is flat at sqrt(2 ln 2 / pi) B = 0.664 B
-    assert BIAS_AV_FACTOR == pytest.approx(0.664, abs=5e-4)
-    assert r.B.value == pytest.approx(_allan_dev(x, 1.0) / BIAS_AV_FACTOR, rel=0.03)
+    assert BI_FACTOR == pytest.approx(0.664, abs=5e-4)
+    assert r.B.value == pytest.approx(_allan_dev(x, 1.0) / BI_FACTOR, rel=0.03)
     assert r.N is None and r.K is None
 
 
@@ -155,33 +157,40 @@ def test_joint_reading_of_white_noise_bias_instability_and_random_walk():
     # each line read alone (as by hand) is biased by its neighbours; the joint reading is not
     alone = psd_reading(x, FREQ, joint=False)
     assert alone.B.value > 1.1 * truth["B"]
-    spec = r.to_spec(bias_tc=30.0)
+    def spec(**kw):
+        return psd_reading_model(r, **kw).to_spec()
+
+    assert r.coefficient_values() == {"N": r.N.value, "B": r.B.value, "K": r.K.value}
+    spec = spec(bias_tc=30.0)
     assert [p["family"] for p in spec["processes"]] == ["WN", "GM", "RW"]
-    gm = {"beta": 1 / 30.0, "sigma2": (BIAS_AV_FACTOR * r.B.value) ** 2}
+    gm = {"beta": 1 / 30.0, "sigma2": (BI_FACTOR * r.B.value) ** 2}
     assert spec["processes"][1]["params"] == gm
     assert spec["processes"][0]["params"]["sigma2"] == pytest.approx(r.N.value**2 * FREQ)
     assert spec["processes"][2]["params"]["sigma2"] == pytest.approx(r.K.value**2 / FREQ)
     with pytest.raises(InputError, match="bias_tc"):
-        r.to_spec()
+        psd_reading_model(r)
     with pytest.raises(InputError, match="bias_tc"):
-        r.to_spec(bias_tc=-1.0)
-    assert [p["family"] for p in r.to_spec(bias=None)["processes"]] == ["WN", "RW"]
+        psd_reading_model(r, bias_tc=-1.0)
+    assert [p.family for p in psd_reading_model(r, bias=None).processes] == ["WN", "RW"]
     # the BI family carries the same flicker law: B as read, corner at the region's low end
-    bi = r.to_spec(bias="bi")["processes"][1]
-    assert bi == {"family": "BI", "params": {"B": r.B.value, "fc": r.B.f_low}}
-    assert r.to_spec(bias="bi", bias_tc=10.0)["processes"][1]["params"]["fc"] == pytest.approx(1 / (20 * math.pi))
-    assert r.to_spec(bias="bi", bias_fc=0.01)["processes"][1]["params"]["fc"] == 0.01
+    bi = psd_reading_model(r, bias="bi").processes[1]
+    assert bi.to_spec() == {"family": "BI", "params": {"B": r.B.value, "fc": r.B.f_low}}
+    assert psd_reading_model(r, bias="bi", bias_tc=10.0).processes[1].fc == pytest.approx(1 / (20 * math.pi))
+    assert psd_reading_model(r, bias="bi", bias_fc=0.01).processes[1].fc == 0.01
     with pytest.raises(InputError, match="bias must be"):
-        r.to_spec(bias="flicker")
+        psd_reading_model(r, bias="flicker")
     model = r.model_psd(r.spectrum.f)
     assert np.median(np.abs(np.log(model / r.spectrum.psd))) < 0.1
     text = r.summary()
     assert "bias instability" in text and "white noise" in text
-    try:
-        models = [r.to_model(bias_tc=30.0), r.to_model(bias="bi")]
-    except (ImportError, UnknownProcessError) as exc:
-        pytest.skip(f"the composer / families are not available yet: {exc}")
-    assert all(m is not None for m in models)
+    # the models' PSDs are the fitted laws where each term was read (one-sided = 2 x two-sided)
+    for bias in ("gm", "bi"):
+        built = psd_reading_model(r, bias=bias, bias_tc=30.0 if bias == "gm" else None)
+        assert built.freq == FREQ
+        for term in (r.N, r.K):
+            f = np.geomspace(term.f_low, term.f_high, 5)
+            np.testing.assert_allclose(2 * built.processes[[0, 2][term is r.K]].psd(f, FREQ),
+                                       term.level_at(f, FREQ), rtol=1e-9)
 
 
 def test_user_ranges():
@@ -211,18 +220,19 @@ def test_no_term_on_a_rising_spectrum():
     x = np.diff(np.random.default_rng(8).standard_normal(100_001))
     r = psd_reading(x, FREQ)
     assert r.terms == {}
+    assert r.coefficient_values() == {}
     with pytest.raises(EstimationError, match="no term"):
-        r.to_spec()
+        psd_reading_model(r)
 
 
 def test_model_from_reading():
     x = np.random.default_rng(6).standard_normal(50_000)
     r = psd_reading(x, FREQ)
-    try:
-        model = r.to_model()
-    except (ImportError, UnknownProcessError) as exc:
-        pytest.skip(f"the composer / WN family is not available yet: {exc}")
-    assert model is not None
+    model = psd_reading_model(r)
+    assert [p.family for p in model.processes] == ["WN"] and model.freq == FREQ
+    # WN of unit variance per sample: its density N^2 is 1 / FREQ, read within the interval
+    assert model.processes[0].sigma2 == pytest.approx(r.N.value**2 * FREQ, rel=1e-12)
+    assert r.N.ci_low**2 * FREQ < 1.0 < r.N.ci_high**2 * FREQ
 
 
 @pytest.mark.parametrize(

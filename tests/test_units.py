@@ -18,8 +18,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from statsmodels.tsa.arima_process import arma_acovf
 
+import stochmod as sm
 from stochmod import units as U
-from stochmod.errors import InputError
+from stochmod.errors import DomainError, InputError
 
 mp.mp.dps = 40
 DEG = mp.pi / 180  # rad per degree, from first principles
@@ -369,8 +370,11 @@ def test_gm_bad_input() -> None:
     with pytest.raises(InputError, match="form"):
         U.gm_driving_psd(1.0, 1.0, form="groves")  # type: ignore[arg-type]
     for phi in (0.0, 1.0, 1.2, -0.5):
-        with pytest.raises(InputError, match="phi"):
+        with pytest.raises(DomainError, match="phi must lie in the open interval"):
             U.gm_from_discrete(phi, 1e-6, 100.0)
+        # one conversion: the GM plugin's constructor refuses the same input the same way
+        with pytest.raises(DomainError, match="phi must lie in the open interval"):
+            sm.get_process("GM").from_ar1(phi, 1e-6, 100.0)
 
 
 # ---------------------------------------------------------------- Quinchia et al. (2013)
@@ -450,7 +454,7 @@ def test_quinchia_table2_ar1_as_gauss_markov() -> None:
     acov0 = arma_acovf(np.array([1.0, -0.999]), np.array([1.0]), nobs=1, sigma2=1.014e-10)[0]
     assert gm.sigma2 == pytest.approx(acov0, rel=1e-10)
     # the accelerometers' alpha_1 = -1 (lines 753-754) is a random walk, not a Gauss-Markov process
-    with pytest.raises(InputError, match="phi"):
+    with pytest.raises(DomainError, match="phi"):
         U.gm_from_discrete(1.0, 2.129e-10, 100.0)
 
 

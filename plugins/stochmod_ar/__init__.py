@@ -28,8 +28,9 @@ import functools
 import math
 import numbers
 import warnings
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
@@ -39,20 +40,21 @@ import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import AccuracyWarning, DomainError, InputError, SpecError
 from stochmod.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter, get_domain
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.statespace import StateSpaceBlock
-
 from stochmod_ar._jacobian import haar_wv_phi_jacobian
 from stochmod_ar._roots import ARRoots, ar_roots
 
 __all__ = ["AR", "stochmod_processes"]
 
-_PHI = Parameter("phi", "stationary_ar", "1", "AR coefficients phi_1..phi_p (size = order)")
-_SIGMA2 = Parameter("sigma2", "positive", "u^2", "innovation variance per sample")
+_PHI = Parameter("phi", "stationary_ar", "1", "AR coefficients phi_1..phi_p (size = order)",
+                 role="shape")
+_SIGMA2 = Parameter("sigma2", "positive", "u^2", "innovation variance per sample", role="variance")
 _CHUNK = 1 << 15
 _EPS = 2.0 ** -52
 _PRECISE_ABOVE = 1e-12  # estimated relative rounding error above which residues go double-double
@@ -104,6 +106,7 @@ class AR(Process):
     description: ClassVar[str] = "autoregressive process AR(p) (discrete time)"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (_PHI, _SIGMA2)
     structural_fields: ClassVar[tuple[str, ...]] = ("order",)
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("ar", "innovation"),)
 
     def __attrs_post_init__(self) -> None:
         arr = None if self.phi is None else _phi_array(self.phi)
@@ -134,7 +137,7 @@ class AR(Process):
 
     # ------------------------------------------------------------------ helpers
     def _roots(self) -> ARRoots:
-        self._require_values()
+        self.require_values()
         return _stationary_roots(self.phi)
 
     def _companion(self) -> np.ndarray:
@@ -336,7 +339,7 @@ class AR(Process):
 
     def discrete_block(self, freq: float) -> StateSpaceBlock:
         """Companion form at the native step 1/freq: ``Phi`` companion, ``Q = sigma2 e1 e1'``."""
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         Q = np.zeros((self.order, self.order))
         Q[0, 0] = self.sigma2
@@ -351,7 +354,7 @@ class AR(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """The recursion (scipy.signal.lfilter) started from the stationary law of the p past values."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         g = as_generator(rng)
         P0 = self.initial_covariance(check_freq(freq))
@@ -429,6 +432,23 @@ class AR(Process):
         j = int(round(float(np.max(levels))))
         sigma2 = float(wv[j - 1]) / float(unit.wv(j, 1.0)[j - 1])
         return self.with_values(phi=phi, sigma2=sigma2)
+
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> AR:
+        """AR(p) of an AR fit's coefficients ``ar`` (phi_1..phi_p) and ``innovation`` (u^2)."""
+        check_freq(freq)
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "AR.from_ieee952")
+        return cls(phi=c["ar"], sigma2=c["innovation"])
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, Any]:
+        """``{"ar": phi, "innovation": sigma2}``."""
+        self.require_values()
+        return {"ar": tuple(self.phi), "innovation": float(self.sigma2)}
+
+    def ordering_key(self) -> float:
+        """``phi_1``: the larger first."""
+        self.require_values()
+        return float(self.phi[0])
 
     @classmethod
     def example(cls, freq: float) -> AR:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import attrs
@@ -11,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError, SpecError
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -87,9 +89,12 @@ class BI(Process):
     family: ClassVar[str] = "BI"
     description: ClassVar[str] = "bias instability: flicker (1/f) noise above a corner frequency"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("B", "positive", "u", "bias instability (Allan deviation floor / 0.664)"),
-        Parameter("fc", "positive", "Hz", "corner frequency below which the PSD is flat"),
+        Parameter("B", "positive", "u", "bias instability (Allan deviation floor / 0.664)",
+                  role="amplitude"),
+        Parameter("fc", "positive", "Hz", "corner frequency below which the PSD is flat",
+                  role="rate"),
     )
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("B", "fc"),)
     structural_fields: ClassVar[tuple[str, ...]] = ("n_gm",)
 
     # ------------------------------------------------------------------ constructors
@@ -113,6 +118,23 @@ class BI(Process):
         return cls.from_correlation_time(to_si(B, unit, kind="B"), to_si(Tc, Tc_unit, kind="Tc"))
 
     @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> BI:
+        """BI of a reading's bias instability ``B`` (u) above the corner ``fc`` (Hz)."""
+        check_freq(freq)
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "BI.from_ieee952")
+        return cls(B=c["B"], fc=c["fc"])
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"B": B, "fc": fc}``."""
+        self.require_values()
+        return {"B": float(self.B), "fc": float(self.fc)}
+
+    def ordering_key(self) -> float:
+        """``B`` (u): the larger first."""
+        self.require_values()
+        return float(self.B)
+
+    @classmethod
     def example(cls, freq: float) -> BI:
         """``B = 1`` u, ``fc = freq / 5000``: floor from ~8 to ~50 samples, bend near 3500."""
         return cls(B=1.0, fc=check_freq(freq) / 5000.0)
@@ -128,7 +150,7 @@ class BI(Process):
         return {} if self.n_gm is None else {"n_gm": self.n_gm}
 
     def _scale_nu(self, freq: float) -> tuple[float, float, float]:
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         return float(self.B) ** 2 / math.pi, float(self.fc) / freq, freq
 
@@ -209,7 +231,7 @@ class BI(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """Exact Gaussian simulation of `n` samples (circulant embedding of the autocovariance)."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         freq = check_freq(freq)
         return circulant_embedding(lambda lags: self.autocovariance(lags, freq), n,
@@ -257,7 +279,7 @@ class BI(Process):
 
         (B and fc, already physical, are the parameters themselves.)
         """
-        self._require_values()
+        self.require_values()
         B, fc = float(self.B), float(self.fc)
         return {
             "Tc": PhysicalValue(1.0 / (2.0 * math.pi * fc), "s",

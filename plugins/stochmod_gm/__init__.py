@@ -24,7 +24,8 @@ a bias instability B.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
@@ -32,18 +33,34 @@ import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError
-from stochmod.geometric import WV_PEAK_X, haar_wv_positive
+from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X, haar_wv_positive
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.statespace import ContinuousBlock
-from stochmod.units import BI_FACTOR, bi_floor
+from stochmod.units import BI_FACTOR, bi_floor, bi_from_floor
+from stochmod_gm.discrete import (
+    GMDiscrete,
+    ar1_to_gm,
+    gm_discretize,
+    gm_driving_psd,
+    gm_from_bias_instability,
+    gm_from_discrete,
+)
 
-__all__ = ["GM", "PEAK_X", "stochmod_processes"]
+__all__ = ["GM", "PEAK_X", "PEAK_AV", "CONVENTIONS", "stochmod_processes", "GMDiscrete",
+           "ar1_to_gm", "gm_discretize", "gm_driving_psd", "gm_from_bias_instability",
+           "gm_from_discrete"]
 
-#: ``m beta / freq`` at which a GM's Haar WV peaks over the levels (slow limit).
+#: ``m beta / freq`` at which a GM's Haar WV peaks over the levels (slow limit); the Allan
+#: variance peaks at ``tau = PEAK_X Tc``.
 PEAK_X = WV_PEAK_X
+#: That Allan-variance maximum over sigma2.
+PEAK_AV = AV_PEAK_VALUE
+#: How :meth:`GM.from_ieee952` turns (B, Tc) into a GM.
+CONVENTIONS = ("quinchia", "matched")
 
 
 def _positive(value: object, what: str) -> float:
@@ -78,9 +95,12 @@ class GM(Process):
     family: ClassVar[str] = "GM"
     description: ClassVar[str] = "first-order Gauss-Markov process (exponentially correlated bias)"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("beta", "positive", "1/s", "inverse correlation time 1/Tc"),
-        Parameter("sigma2", "positive", "u^2", "stationary variance"),
+        Parameter("beta", "positive", "1/s", "inverse correlation time 1/Tc", role="rate"),
+        Parameter("sigma2", "positive", "u^2", "stationary variance", role="variance"),
     )
+    lattice_copies: ClassVar[int] = 3
+    lattice_rank: ClassVar[int] = 10
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("B", "Tc"), ("rate", "variance"))
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -105,18 +125,15 @@ class GM(Process):
 
         Notes
         -----
-        ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``; a phi
-        within a few ulps of 1 carries few digits of beta.
+        ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``
+        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion ``stochmod.units.gm_from_discrete``
+        also uses: same errors); a phi within a few ulps of 1 carries few digits of beta.
         """
-        freq = check_freq(freq)
-        try:
-            p = float(phi)
-        except (TypeError, ValueError):
-            raise DomainError(f"GM.from_ar1: phi must be a number in (0, 1), got {phi!r}") from None
-        if not 0.0 < p < 1.0:
-            raise DomainError(f"GM.from_ar1: phi must lie in (0, 1) for a Gauss-Markov process, got {phi!r}")
-        q = _positive(innovation_var, "GM.from_ar1: innovation_var (u^2)")
-        return cls(beta=-math.log(p) * freq, sigma2=q / ((1.0 - p) * (1.0 + p)))
+        _, _, beta, sigma2, scalar = ar1_to_gm(phi, innovation_var, freq)
+        if not scalar:
+            raise InputError(f"GM.from_ar1 takes one phi and one innovation_var, got {phi!r}, "
+                             f"{innovation_var!r}")
+        return cls(beta=float(beta), sigma2=float(sigma2))
 
     @classmethod
     def from_bias_instability(cls, B: float, Tc: float, *, factor: float = BI_FACTOR) -> GM:
@@ -131,10 +148,50 @@ class GM(Process):
         B = _positive(B, "GM.from_bias_instability: B (bias instability, u)")
         return cls.from_correlation_time(Tc, float(bi_floor(B, factor)))
 
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float, *,
+                     convention: str = "quinchia") -> GM:
+        """GM from a classical reading: a bias instability ``B`` (u) with the correlation time
+        ``Tc`` (s) read on the Allan curve, or an autocorrelation's decay ``rate`` (1/s) and
+        ``variance`` (u^2). `freq` (Hz) is checked; GM's parameters do not depend on it.
+
+        `convention` for (B, Tc): ``"quinchia"`` (Quinchia et al. 2013 eqs. 19-20, 27-30):
+        ``beta = 1 / Tc`` and the stationary sigma the flat Allan-deviation level
+        ``BI_FACTOR * B`` (eq. 29); ``"matched"``: the GM whose Allan-variance peak (at
+        ``tau = PEAK_X / beta``, value ``PEAK_AV sigma2``) sits on that level at Tc.
+        """
+        check_freq(freq)
+        names = cls.ieee952_set(coefficients)
+        c = check_coefficients(coefficients, names, "GM.from_ieee952")
+        if names == ("rate", "variance"):
+            return cls(beta=c["rate"], sigma2=c["variance"])
+        if convention not in CONVENTIONS:
+            raise InputError(f"GM.from_ieee952: convention must be one of {CONVENTIONS}; "
+                             f"got {convention!r}")
+        level = float(bi_floor(c["B"])) ** 2  # flat Allan-variance level, u^2
+        if convention == "quinchia":
+            return cls(beta=1.0 / c["Tc"], sigma2=level)
+        return cls(beta=PEAK_X / c["Tc"], sigma2=level / PEAK_AV)
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"B", "Tc"}`` (the "quinchia" convention) or ``{"rate", "variance"}``."""
+        self.require_values()
+        check_freq(freq)
+        if tuple(names) == ("rate", "variance"):
+            return {"rate": float(self.beta), "variance": float(self.sigma2)}
+        if tuple(names) == ("B", "Tc"):
+            return {"B": float(bi_from_floor(math.sqrt(self.sigma2))), "Tc": 1.0 / self.beta}
+        raise InputError(f"GM is built from {list(self.ieee952)}, not {names!r}")
+
+    def ordering_key(self) -> float:
+        """``beta`` (1/s): repeated GMs are ordered fastest first."""
+        self.require_values()
+        return float(self.beta)
+
     def to_ar1(self, freq: float) -> tuple[float, float]:
         """``(phi, innovation_var)`` of the samples at `freq` Hz: ``exp(-beta/freq)`` and
         ``sigma2 (1 - phi^2)`` in u^2 (computed as ``-sigma2 expm1(-2 beta/freq)``)."""
-        self._require_values()
+        self.require_values()
         u = self.beta / check_freq(freq)
         return math.exp(-u), -self.sigma2 * math.expm1(-2.0 * u)
 
@@ -143,20 +200,20 @@ class GM(Process):
         """Haar: ``sigma2 W_m(exp(-beta/freq))``, m = 2^(j-1) (u^2); other wavelets: PSD quadrature."""
         if wavelet != "haar":
             return super().wv(levels, freq, wavelet)
-        self._require_values()
+        self.require_values()
         u = self.beta / check_freq(freq)
         return self.sigma2 * haar_wv_positive(u, _levels_m(levels))[0]
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """Columns ``d wv / d beta`` (u^2 s) and ``d wv / d sigma2`` (dimensionless), shape (levels, 2)."""
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         w, dw_du = haar_wv_positive(self.beta / freq, _levels_m(levels))
         return np.column_stack([self.sigma2 / freq * dw_du, w])
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD of the sampled process, u^2/Hz, at `f` Hz in (-freq/2, freq/2]."""
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         u = self.beta / freq
         phi = math.exp(-u)
@@ -166,7 +223,7 @@ class GM(Process):
 
     def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
         """``sigma2 exp(-beta |h| / freq)`` at integer lags h (samples), u^2."""
-        self._require_values()
+        self.require_values()
         h = np.abs(np.asarray(lags, dtype=np.float64))
         return self.sigma2 * np.exp(-h * (self.beta / check_freq(freq)))
 
@@ -178,18 +235,18 @@ class GM(Process):
 
     def continuous_block(self, freq: float) -> ContinuousBlock:
         """``F = -beta``, ``G = 1``, ``Qc = 2 beta sigma2`` (u^2/s)."""
-        self._require_values()
+        self.require_values()
         return ContinuousBlock(F=[[-self.beta]], G=[[1.0]], Qc=[[2.0 * self.beta * self.sigma2]])
 
     def initial_covariance(self, freq: float) -> np.ndarray:
         """Stationary: ``[[sigma2]]`` (u^2)."""
-        self._require_values()
+        self.require_values()
         return np.array([[float(self.sigma2)]])
 
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """Stationary AR(1) recursion (scipy.signal.lfilter), started from N(0, sigma2)."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         phi, q = self.to_ar1(freq)
         g = as_generator(rng)
@@ -238,7 +295,7 @@ class GM(Process):
 
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """Correlation time Tc = 1/beta (s) and stationary sigma = sqrt(sigma2) (u)."""
-        self._require_values()
+        self.require_values()
         return {
             "Tc": PhysicalValue(1.0 / self.beta, "s", "correlation time"),
             "sigma": PhysicalValue(math.sqrt(self.sigma2), "u", "stationary standard deviation"),

@@ -23,13 +23,16 @@ and the unit root makes the MA(1) non-invertible, so it is not offered.
 
 from __future__ import annotations
 
-from typing import ClassVar
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
@@ -59,8 +62,11 @@ class QN(Process):
     description: ClassVar[str] = "quantization noise (differenced uniform rounding error)"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
         Parameter("Q2", "positive", "u^2",
-                  "quantization parameter: variance 2 Q2, lag-1 covariance -Q2"),
+                  "quantization parameter: variance 2 Q2, lag-1 covariance -Q2", role="variance"),
     )
+    lattice_copies: ClassVar[int] = 1
+    lattice_rank: ClassVar[int] = 40
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("Q",),)
 
     @classmethod
     def from_quantization(cls, Q: float, freq: float) -> QN:
@@ -74,12 +80,28 @@ class QN(Process):
         q = Q * freq  # u; squares beyond the float range give inf, refused as out of domain
         return cls(Q2=q * q)
 
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> QN:
+        """QN of the IEEE coefficient ``Q`` (u*s) at `freq` Hz (:meth:`from_quantization`)."""
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "QN.from_ieee952")
+        return cls.from_quantization(c["Q"], freq)
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"Q": sqrt(Q2) / freq}``."""
+        self.require_values()
+        return {"Q": math.sqrt(self.Q2) / check_freq(freq)}
+
+    def ordering_key(self) -> float:
+        """``Q2`` (u^2): the larger first."""
+        self.require_values()
+        return float(self.Q2)
+
     # ------------------------------------------------------------------ theory
     def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
         """Haar: ``3 Q2 / (2 m^2)``, m = 2^(j-1) (u^2); other wavelets: PSD quadrature."""
         if wavelet != "haar":
             return super().wv(levels, freq, wavelet)
-        self._require_values()
+        self.require_values()
         return self.Q2 * self.wv_jacobian(levels, freq)[:, 0]  # linear in Q2
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
@@ -89,14 +111,14 @@ class QN(Process):
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD ``4 Q2 sin^2(pi f / freq) / freq`` (u^2/Hz)."""
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         s = np.sin(np.pi * np.asarray(f, dtype=np.float64) / freq)
         return 4.0 * self.Q2 * s * s / freq
 
     def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
         """``2 Q2`` at lag 0, ``-Q2`` at lags +-1, zero elsewhere (u^2)."""
-        self._require_values()
+        self.require_values()
         lags = np.abs(np.asarray(lags))
         return np.where(lags == 0, 2.0 * self.Q2, np.where(lags == 1, -self.Q2, 0.0))
 
@@ -108,7 +130,7 @@ class QN(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """``sqrt(12 Q2) (U_t - U_{t-1})`` from n + 1 uniform draws on [0, 1)."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         check_freq(freq)
         u = as_generator(rng).random(n + 1)
@@ -135,7 +157,7 @@ class QN(Process):
 
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """Quantization coefficient Q = sqrt(Q2) / freq in u*s."""
-        self._require_values()
+        self.require_values()
         return {"Q": PhysicalValue(float(np.sqrt(self.Q2) / check_freq(freq)), "u*s",
                                    "quantization coefficient, AV 3 Q^2 / tau^2")}
 

@@ -26,13 +26,15 @@ the wavelet variance never uses it.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
@@ -75,9 +77,13 @@ class RR(Process):
     family: ClassVar[str] = "RR"
     description: ClassVar[str] = "random ramp (rate ramp): a line of random slope"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("omega", "positive", "u", "rms slope per sample (u per sample)"),
+        Parameter("omega", "positive", "u", "rms slope per sample (u per sample)",
+                  role="amplitude"),
     )
     stationary: ClassVar[bool] = False
+    lattice_copies: ClassVar[int] = 1
+    lattice_rank: ClassVar[int] = 50
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("R",),)
 
     @classmethod
     def from_rate_ramp(cls, R: float, freq: float) -> RR:
@@ -85,18 +91,34 @@ class RR(Process):
         at `freq` Hz: ``omega = R / freq``."""
         return cls(omega=float(R) / check_freq(freq))
 
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> RR:
+        """Random ramp of the IEEE coefficient ``R`` (u/s) at `freq` Hz (:meth:`from_rate_ramp`)."""
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "RR.from_ieee952")
+        return cls.from_rate_ramp(c["R"], freq)
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"R": omega freq}``."""
+        self.require_values()
+        return {"R": float(self.omega) * check_freq(freq)}
+
+    def ordering_key(self) -> float:
+        """``omega`` (u per sample): the steeper first."""
+        self.require_values()
+        return float(self.omega)
+
     # ------------------------------------------------------------------ theory
     def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
         """``omega^2 m^2 mu^2`` (u^2): ``omega^2 m^2 / 4`` for Haar, 0 for wavelets with two or
         more vanishing moments (see the module notes)."""
-        self._require_values()
+        self.require_values()
         check_freq(freq)
         m = _half_widths(check_positive_int(levels, name="levels"))
         return (self.omega * m * _first_moment(wavelet)) ** 2
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """d wv_j / d omega = omega m^2 / 2 (Haar), shape (levels, 1)."""
-        self._require_values()
+        self.require_values()
         check_freq(freq)
         m = _half_widths(check_positive_int(levels, name="levels"))
         return (0.5 * self.omega * m * m)[:, None]
@@ -114,7 +136,7 @@ class RR(Process):
 
         For plots against IEEE Std 952 readings only (see the module notes); inf at f = 0.
         """
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         w = 2.0 * np.pi * np.abs(np.asarray(f, dtype=np.float64))
         rate = self.omega * freq
@@ -134,7 +156,7 @@ class RR(Process):
     def initial_covariance(self, freq: float) -> np.ndarray:
         """``diag(0, (omega freq)^2)``: the ramp starts at 0, the slope is a random constant
         with mean square ``R^2`` (u/s)^2."""
-        self._require_values()
+        self.require_values()
         rate = self.omega * check_freq(freq)
         return np.diag([0.0, rate * rate])
 
@@ -142,7 +164,7 @@ class RR(Process):
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """``s t`` for t = 0..n-1 with one draw ``s ~ N(0, omega^2)`` (the ramp state starts at 0
         and the slope state is N(0, (omega freq)^2), as in :meth:`initial_covariance`)."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         check_freq(freq)
         slope = self.omega * as_generator(rng).standard_normal()
@@ -171,7 +193,7 @@ class RR(Process):
 
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """Rate ramp R = omega freq in u/s (rms slope)."""
-        self._require_values()
+        self.require_values()
         return {"R": PhysicalValue(float(self.omega * check_freq(freq)), "u/s",
                                    "rate ramp (rms slope), AV R^2 tau^2 / 2")}
 

@@ -24,13 +24,15 @@ Closed forms (m = 2^(j-1) samples per half of the level-j Haar filter, tau = m /
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.coefficients import check_coefficients
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
@@ -62,9 +64,13 @@ class RW(Process):
     family: ClassVar[str] = "RW"
     description: ClassVar[str] = "Gaussian random walk (rate / acceleration random walk)"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("sigma2", "positive", "u^2", "variance of the per-sample increment"),
+        Parameter("sigma2", "positive", "u^2", "variance of the per-sample increment",
+                  role="variance"),
     )
     stationary: ClassVar[bool] = False
+    lattice_copies: ClassVar[int] = 1
+    lattice_rank: ClassVar[int] = 30
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("K",),)
 
     @classmethod
     def from_rrw(cls, K: float, freq: float) -> RW:
@@ -74,12 +80,28 @@ class RW(Process):
         """
         return cls(sigma2=rw_variance(K, freq))
 
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> RW:
+        """Random walk of the IEEE coefficient ``K`` (u/sqrt(s)) at `freq` Hz (:meth:`from_rrw`)."""
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "RW.from_ieee952")
+        return cls.from_rrw(c["K"], check_freq(freq))
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"K": sqrt(sigma2 freq)}``."""
+        self.require_values()
+        return {"K": float(rw_density(self.sigma2, freq))}
+
+    def ordering_key(self) -> float:
+        """``sigma2`` (u^2): the larger first."""
+        self.require_values()
+        return float(self.sigma2)
+
     # ------------------------------------------------------------------ theory
     def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
         """Haar: ``sigma2 (2 m^2 + 1) / (12 m)``, m = 2^(j-1) (u^2); others: PSD quadrature."""
         if wavelet != "haar":
             return super().wv(levels, freq, wavelet)
-        self._require_values()
+        self.require_values()
         return self.sigma2 * self.wv_jacobian(levels, freq)[:, 0]  # linear in sigma2
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
@@ -89,7 +111,7 @@ class RW(Process):
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Generalised two-sided PSD ``sigma2 / (4 freq sin^2(pi f / freq))``, u^2/Hz (inf at 0)."""
-        self._require_values()
+        self.require_values()
         freq = check_freq(freq)
         s = np.sin(np.pi * np.asarray(f, dtype=np.float64) / freq)
         with np.errstate(divide="ignore"):
@@ -103,13 +125,13 @@ class RW(Process):
 
     def continuous_block(self, freq: float) -> ContinuousBlock:
         """``F = 0``, ``G = 1``, ``Qc = sigma2 freq`` (= K^2, u^2/s)."""
-        self._require_values()
+        self.require_values()
         return ContinuousBlock(F=[[0.0]], G=[[1.0]], Qc=[[self.sigma2 * check_freq(freq)]])
 
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """``X_0 = 0`` (as ``P0 = 0``), then cumulative sums of N(0, sigma2) increments."""
-        self._require_values()
+        self.require_values()
         n = check_positive_int(n, name="n")
         check_freq(freq)
         steps = np.sqrt(self.sigma2) * as_generator(rng).standard_normal(n - 1)
@@ -136,7 +158,7 @@ class RW(Process):
 
     def physical(self, freq: float) -> dict[str, PhysicalValue]:
         """Rate random walk K = sqrt(sigma2 freq) in u/sqrt(s)."""
-        self._require_values()
+        self.require_values()
         return {"K": PhysicalValue(rw_density(self.sigma2, freq), "u/sqrt(s)",
                                    "random-walk coefficient (RRW/AccRW), AV K^2 tau / 3")}
 

@@ -7,15 +7,19 @@ model's sampling frequency ``freq``. Physical view: the noise density
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
+from stochmod._validation import check_freq
+from stochmod.coefficients import check_coefficients
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
+from stochmod.units import wn_density
 
 __all__ = ["WN", "stochmod_processes"]
 
@@ -35,17 +39,36 @@ class WN(Process):
     family: ClassVar[str] = "WN"
     description: ClassVar[str] = "Gaussian white noise (angle/velocity random walk)"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("sigma2", "positive", "u^2", "variance per sample"),
+        Parameter("sigma2", "positive", "u^2", "variance per sample", role="variance"),
     )
+    lattice_copies: ClassVar[int] = 1
+    lattice_rank: ClassVar[int] = 20
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("N",),)
 
     @classmethod
     def from_density(cls, N: float, freq: float) -> WN:
         """White noise of density `N` (u*sqrt(s) = u/sqrt(Hz), Allan variance N^2/tau) at `freq` Hz."""
         return cls(sigma2=float(N) ** 2 * float(freq))
 
+    @classmethod
+    def from_ieee952(cls, coefficients: Mapping[str, Any], freq: float) -> WN:
+        """White noise of the IEEE coefficient ``N`` (u*sqrt(s)) at `freq` Hz: ``sigma2 = N^2 freq``."""
+        c = check_coefficients(coefficients, cls.ieee952_set(coefficients), "WN.from_ieee952")
+        return cls.from_density(c["N"], check_freq(freq))
+
+    def to_ieee952(self, freq: float, names: tuple[str, ...]) -> dict[str, float]:
+        """``{"N": sqrt(sigma2 / freq)}``."""
+        self.require_values()
+        return {"N": float(wn_density(self.sigma2, freq))}
+
+    def ordering_key(self) -> float:
+        """``sigma2`` (u^2): the larger first."""
+        self.require_values()
+        return float(self.sigma2)
+
     def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
         """``sigma2 / 2^j`` for any wavelet (the level-j MODWT filter has energy 1/2^j)."""
-        self._require_values()
+        self.require_values()
         return self.sigma2 / 2.0 ** np.arange(1, int(levels) + 1)
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
@@ -54,12 +77,12 @@ class WN(Process):
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Flat two-sided PSD ``sigma2 / freq`` (u^2/Hz)."""
-        self._require_values()
+        self.require_values()
         return np.full(np.shape(f), self.sigma2 / freq)
 
     def autocovariance(self, lags: ArrayLike, freq: float) -> np.ndarray:
         """``sigma2`` at lag 0, zero elsewhere."""
-        self._require_values()
+        self.require_values()
         return np.where(np.asarray(lags) == 0, self.sigma2, 0.0)
 
     def white_variance(self, freq: float) -> float:
@@ -68,7 +91,7 @@ class WN(Process):
 
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """i.i.d. normal draws with variance sigma2."""
-        self._require_values()
+        self.require_values()
         return np.sqrt(self.sigma2) * as_generator(rng).standard_normal(int(n))
 
     def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,

@@ -6,7 +6,9 @@ import argparse
 from typing import Any
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.fit.selection import DEFAULT_FAMILIES, select
+from stochmod.errors import InputError
+from stochmod.fit.selection import select
+from stochmod.lattice import default_families, default_max_counts
 
 __all__ = ["register", "run", "add_selection_arguments", "selection_options"]
 
@@ -15,11 +17,19 @@ def add_selection_arguments(p: argparse.ArgumentParser) -> None:
     """Candidate, criterion and weighting options shared by ``select`` and ``calibrate``."""
     p.add_argument("--candidates", nargs="+", default=None, metavar="SPEC",
                    help='candidate models, e.g. "GM+WN" "2*GM+WN" (default: every combination '
-                        "of --families, up to --max-gm GMs)")
-    p.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), metavar="F",
-                   help=f"families of the candidate lattice (default: {' '.join(DEFAULT_FAMILIES)})")
-    p.add_argument("--max-gm", type=int, default=3, metavar="K",
-                   help="largest number of GM processes in the lattice (default 3)")
+                        "of --families, up to --max-count copies of each)")
+    try:
+        families = default_families()
+    except InputError:  # no registered family declares lattice membership: --families needed
+        families = ()
+    p.add_argument("--families", nargs="+", default=list(families), metavar="F",
+                   help=f"families of the candidate lattice (default: {' '.join(families)}, the "
+                        "registered families that declare lattice membership)")
+    counts = " ".join(f"{f}={k}" for f, k in default_max_counts(families).items())
+    p.add_argument("--max-count", nargs="+", default=[], metavar="F=K",
+                   help="largest number of processes of a family in the lattice (default: the "
+                        f"family's declared lattice_copies{', ' + counts if counts else ''}; "
+                        "others 1)")
     p.add_argument("--criterion", default="wvic",
                    help="selection criterion registered by a plugin (default wvic)")
     p.add_argument("--weighting", default="diagonal", metavar="NAME",
@@ -36,12 +46,23 @@ def selection_options(args: argparse.Namespace) -> dict[str, Any]:
     return {
         "candidates": args.candidates,
         "families": families,
-        "max_counts": {"GM": args.max_gm} if "GM" in families else None,
+        "max_counts": default_max_counts(families) | _max_counts(args.max_count),
         "criterion": args.criterion,
         "weighting": args.weighting,
         "levels": args.levels,
         "rng": args.seed,
     }
+
+
+def _max_counts(items: list[str]) -> dict[str, int]:
+    """``["GM=2", "WN=1"]`` -> ``{"GM": 2, "WN": 1}``."""
+    out = {}
+    for item in items:
+        name, sep, count = item.partition("=")
+        if not (sep and name and count.strip().isdigit()):
+            raise InputError(f"--max-count takes FAMILY=K with K a non-negative integer, got {item!r}")
+        out[name.strip()] = int(count)
+    return out
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -53,7 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Fit every candidate model by the GMWM with a common weighting matrix and rank them "
             "by the wavelet-variance information criterion (objective + optimism), with the "
             "J-test p-value as goodness of fit. Candidates: --candidates, or every combination "
-            "of --families with up to --max-gm GMs. Units: those of the file."
+            "of --families with up to --max-count copies of each. Units: those of the file."
         ),
     )
     add_input_arguments(p)

@@ -200,12 +200,12 @@ def refine(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
 
 
 def canonical(model: Model) -> Model:
-    """Order repeated components of one family by their first parameter, largest first
-    (GM: fastest first), so that fitted models compare across runs (no label switching)."""
+    """Order repeated components of one family by their declared ``ordering_key()``, largest
+    first (GM: fastest first), so that fitted models compare across runs (no label switching)."""
     procs = list(model.processes)
     for family in {p.family for p in procs}:
         slots = [i for i, p in enumerate(procs) if p.family == family]
-        ordered = sorted((procs[i] for i in slots), key=lambda p: -float(p.vector()[0]))
+        ordered = sorted((procs[i] for i in slots), key=lambda p: -p.ordering_key())
         for i, p in zip(slots, ordered):
             procs[i] = p
     return attrs.evolve(model, processes=tuple(procs))

@@ -41,26 +41,30 @@ from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import check_weighting_matrix, data_covariance
 from stochmod.fit.weightings import WeightingInput, get_weighting, weighting_names
 from stochmod.io import Recording
+from stochmod.lattice import default_families, default_max_counts
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
 from stochmod.reporting import format_table
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
-           "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]
-
-#: Families of the default lattice.
-DEFAULT_FAMILIES = ("GM", "WN", "RW", "QN", "RR")
-
+           "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (read through __getattr__)
 
 
 def __getattr__(name: str) -> Any:
-    """``SELECTION_WEIGHTINGS``: the registered weightings usable in a selection, at the time
-    of the access (a weighting that needs each model's own fit, such as the bootstrap, cannot
-    be shared by all candidates); :func:`stochmod.fit.weightings.weighting_names`."""
+    """Registry-derived constants, read when asked, not at import.
+
+    ``DEFAULT_FAMILIES``: the registered families that declare lattice membership
+    (:func:`stochmod.lattice.default_families`). ``SELECTION_WEIGHTINGS``: the registered
+    weightings usable in a selection (a weighting that needs each model's own fit, such as the
+    bootstrap, cannot be shared by all candidates; :func:`stochmod.fit.weightings.weighting_names`).
+    """
+    if name == "DEFAULT_FAMILIES":
+        return default_families()
     if name == "SELECTION_WEIGHTINGS":
         return tuple(weighting_names(shared=True))
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 _AUTO_PROGRESS = 8  # progress bar by default above this many fits
 _NEGLIGIBLE = 1e-30  # relative size of a padded component's WV (objective unchanged in float64)
@@ -87,7 +91,7 @@ def _terms(model: Model) -> Counter:
     return Counter(_term_key(p) for p in model.processes)
 
 
-def candidate_lattice(families: Sequence[str] = DEFAULT_FAMILIES,
+def candidate_lattice(families: Sequence[str] | None = None,
                       max_counts: Mapping[str, int] | None = None) -> list[Model]:
     """Every non-empty combination of `families` with 0..max_counts[f] copies of each.
 
@@ -95,7 +99,7 @@ def candidate_lattice(families: Sequence[str] = DEFAULT_FAMILIES,
     ----------
     families : sequence of str
         Family names (``"GM"``) or one-process terms (``"AR(2)"``), in the order the model
-        names list them.
+        names list them (default: :func:`stochmod.lattice.default_families`).
     max_counts : mapping of str to int, optional
         Largest count per family (default 1 for a family not listed; e.g. ``{"GM": 3}``).
 
@@ -104,7 +108,7 @@ def candidate_lattice(families: Sequence[str] = DEFAULT_FAMILIES,
     list of Model
         Free models, fewest processes first.
     """
-    families = list(families)
+    families = list(default_families() if families is None else families)
     if not families:
         raise InputError("families is empty: name at least one process family")
     if len(set(families)) != len(families):
@@ -306,34 +310,27 @@ def _fit_task(task: _Task) -> GMWMResult:
 
 
 def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | None:
-    """`proc` with an amplitude parameter shrunk until its WV is below ``_NEGLIGIBLE * nu_hat``.
+    """`proc` with its scale parameter shrunk until its WV is below ``_NEGLIGIBLE * nu_hat``.
 
-    The amplitude is found generically: a scalar parameter whose doubling multiplies the
-    whole WV by the same factor ``2^d`` (d > 0) at every level. None if there is none.
+    The contract's rule (docs/plugin_contract.md, "Roles"): the WV is proportional to
+    ``value ** d`` of the parameter declared with a scale role (d = 1 for ``"variance"``, 2 for
+    ``"amplitude"``), so multiplying it by ``(_NEGLIGIBLE min_j nu_hat_j / wv_j) ** (1/d)``
+    puts the component's WV below ``_NEGLIGIBLE`` times the data's at every level. None when
+    the family declares no scale role or its WV is nowhere positive.
     """
-    J = nu_hat.size
-    base = proc.wv(J, freq)
+    scale = proc.scale_parameter()
+    if scale is None:
+        return None
+    spec, power = scale
+    base = proc.wv(nu_hat.size, freq)
     pos = base > 0
     if not np.all(np.isfinite(base)) or not pos.any():
         return None
-    for spec in proc.parameters():
-        value = getattr(proc, spec.name)
-        if spec.size != 1 or value is None or np.ndim(value) != 0 or value == 0:
-            continue  # vector-valued (AR phi), free or zero: not an amplitude
-        try:
-            doubled = proc.with_values(**{spec.name: 2.0 * value}).wv(J, freq)
-        except (DomainError, ArithmeticError, ValueError):
-            continue
-        with np.errstate(all="ignore"):
-            deg = np.log2(doubled[pos] / base[pos])
-        if not np.all(np.isfinite(deg)) or deg.min() < 0.5 or np.ptp(deg) > 1e-6:
-            continue
-        factor = (_NEGLIGIBLE * np.min(nu_hat[pos] / base[pos])) ** (1.0 / float(np.mean(deg)))
-        try:
-            return proc.with_values(**{spec.name: value * factor})
-        except DomainError:
-            continue
-    return None
+    factor = (_NEGLIGIBLE * np.min(nu_hat[pos] / base[pos])) ** (1.0 / power)
+    try:
+        return proc.with_values(**{spec.name: getattr(proc, spec.name) * factor})
+    except DomainError:
+        return None
 
 
 def _slots(child: Model, parent: Model) -> tuple[list[Process | None], int] | None:
@@ -581,7 +578,7 @@ def select(
     x: ArrayLike | Recording,
     freq: float | None = None,
     candidates: Sequence[str | Mapping | Model | Process] | None = None,
-    families: Sequence[str] = DEFAULT_FAMILIES,
+    families: Sequence[str] | None = None,
     max_counts: Mapping[str, int] | None = None,
     criterion: str = "wvic",
     weighting: str = "diagonal",
@@ -606,10 +603,13 @@ def select(
     candidates : sequence of spec, optional
         Model specs (``"2*GM+WN"``, dicts, Models). None: the lattice of `families` with
         counts 0..`max_counts` (see :func:`candidate_lattice`).
-    families : sequence of str
-        Families of the lattice (default GM, WN, RW, QN, RR).
+    families : sequence of str, optional
+        Families of the lattice (default: the registered families that declare
+        ``lattice_copies > 0``, :func:`stochmod.lattice.default_families`; with the
+        first-party plugins GM, WN, RW, QN, RR).
     max_counts : mapping, optional
-        Largest count per family (default ``{"GM": 3}``, others 1).
+        Largest count per family (default: each family's declared ``lattice_copies`` where
+        above 1, others 1; with the first-party plugins ``{"GM": 3}``).
     criterion : str
         Registered criterion (``"wvic"``, or a plugin's from the ``stochmod_criteria`` hook).
     weighting : str
@@ -660,8 +660,10 @@ def select(
         prepared = [_column(pooled.wv, None, scheme, seed, pooled.covariance)]
     else:
         data, freq, cols, single = _signals(x, freq, names)
-    if max_counts is None and candidates is None:
-        max_counts = {"GM": 3} if "GM" in families else {}
+    if candidates is None:
+        families = default_families() if families is None else tuple(families)
+        if max_counts is None:
+            max_counts = default_max_counts(families)
     models = _as_candidates(candidates, families, max_counts)
     graph = nested_graph(models)
     n_fits = graph.number_of_nodes() * len(cols)

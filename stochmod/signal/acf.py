@@ -186,23 +186,22 @@ class GMAcfFit:
             "freq": self.freq, "n": self.n, "caveats": list(self.caveats),
         }
 
-    def to_spec(self, *, use_ls: bool = False) -> dict[str, Any]:
-        """The GM model as a composer spec (``use_ls`` takes the least-squares values)."""
+    def coefficient_values(self, *, use_ls: bool = False) -> dict[str, float]:
+        """``{"rate": beta (1/s), "variance": sigma2 (u^2)}`` of the exponential (``use_ls``:
+        the least-squares pair); :func:`stochmod.classical.acf_model` builds the model.
+
+        Raises
+        ------
+        EstimationError
+            The fit gave no usable pair (the message lists the caveats).
+        """
         beta, sigma2 = (self.beta_ls, self.sigma2_ls) if use_ls else (self.beta, self.sigma2)
         if not (np.isfinite(beta) and beta > 0 and np.isfinite(sigma2) and sigma2 > 0):
             raise EstimationError(
-                f"no usable GM parameters (beta={beta!r} 1/s, sigma2={sigma2!r}); caveats: "
+                f"no usable exponential decay (rate={beta!r} 1/s, variance={sigma2!r}); caveats: "
                 + ("; ".join(self.caveats) or "none")
             )
-        params = {"beta": float(beta), "sigma2": float(sigma2)}
-        return {"processes": [{"family": "GM", "params": params}]}
-
-    def to_model(self, freq: float | None = None, *, use_ls: bool = False) -> Any:
-        """Build the GM model with :func:`stochmod.model_from_spec` (default: the fit's freq)."""
-        from stochmod import model_from_spec  # the composer; imported lazily
-
-        fs = self.freq if freq is None else check_freq(freq)
-        return model_from_spec(self.to_spec(use_ls=use_ls), fs)
+        return {"rate": float(beta), "variance": float(sigma2)}
 
 
 def _crossing(rho: np.ndarray, level: float) -> float:

@@ -292,16 +292,10 @@ class ARFit:
             "max_root_modulus": self.max_root_modulus, "freq": self.freq, "n": self.n,
         }
 
-    def to_spec(self) -> dict[str, Any]:
-        """The AR(p) composer spec."""
-        return {"processes": [{"family": "AR", "params": {
-            "phi": [float(v) for v in self.phi], "sigma2": float(self.sigma2)}}]}
-
-    def to_model(self, freq: float | None = None) -> Any:
-        """Build the AR(p) composite model with :func:`stochmod.model_from_spec`."""
-        from stochmod import model_from_spec  # the composer; imported lazily
-
-        return model_from_spec(self.to_spec(), self.freq if freq is None else check_freq(freq))
+    def coefficient_values(self) -> dict[str, Any]:
+        """``{"ar": (phi_1, ..., phi_p), "innovation": sigma2 (u^2)}``;
+        :func:`stochmod.classical.ar_model` builds the model."""
+        return {"ar": tuple(float(v) for v in self.phi), "innovation": float(self.sigma2)}
 
 
 def fit_ar(

@@ -389,7 +389,7 @@ def denoise_then_ar(
     Returns
     -------
     ARFit
-        ``to_model()`` gives the AR(p) model.
+        :func:`stochmod.classical.ar_model` gives the AR(p) model.
     """
     from stochmod.signal.ar_fit import fit_ar
 

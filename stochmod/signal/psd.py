@@ -34,7 +34,7 @@ from scipy import signal as sp_signal
 from scipy import stats
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import EstimationError, InputError
+from stochmod.errors import InputError
 from stochmod.signal.allan import local_slopes
 from stochmod.reporting import format_table
 
@@ -56,8 +56,6 @@ TERMS: dict[str, tuple[int, str, str]] = {
 }
 # G(f) = C f^slope  ->  coefficient = sqrt(C * _SCALE[name])
 _SCALE = {"N": 0.5, "B": math.pi, "K": 2.0 * math.pi**2}
-#: Allan deviation of bias instability on its flat part, in units of B (IEEE 952: sqrt(2 ln2/pi)).
-BIAS_AV_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 
 
 def _chi2_interval(
@@ -383,65 +381,12 @@ class PSDReading:
         out = {k: (found[k].to_dict() if k in found else None) for k in TERMS}
         return out | {"freq": self.freq}
 
-    def to_spec(self, freq: float | None = None, *, bias: str | None = "gm",
-                bias_tc: float | None = None, bias_fc: float | None = None) -> dict[str, Any]:
-        """The composite model as a composer spec, in per-sample parameters at `freq`.
+    def coefficient_values(self) -> dict[str, float]:
+        """The coefficients found, ``{"N": ..., "B": ..., "K": ...}`` in SI (names of
+        :data:`stochmod.coefficients.COEFFICIENTS`); :func:`stochmod.classical.psd_reading_model`
+        turns them into a model."""
+        return {name: float(t.value) for name, t in self.terms.items()}
 
-        WN ``sigma2 = N^2 freq``; RW ``sigma2 = K^2 / freq``; B according to `bias`:
-
-        * ``"gm"`` (default, Quinchia eq. 28-29 and the Allan reading's "quinchia" convention):
-          a first-order GM with ``sigma_GM = 0.664 B`` and correlation time `bias_tc` (s), which
-          the PSD does not give: required when B was found;
-        * ``"bi"``: the BI family ``BI(B, fc)``, whose PSD is this reading's flicker law above
-          the corner ``fc`` (Hz): `bias_fc`, else ``1 / (2 pi bias_tc)``, else the lowest
-          frequency of the fitted B region (the 1/f law was seen down to there);
-        * None: leave B out.
-        """
-        freq = self.freq if freq is None else check_freq(freq)
-        if bias not in ("gm", "bi", None):
-            raise InputError(f"bias must be 'gm', 'bi' or None, got {bias!r}")
-        tc = None if bias_tc is None else _positive(bias_tc, "bias_tc (s)")
-        processes: list[dict[str, Any]] = []
-        if self.N is not None:
-            processes.append({"family": "WN", "params": {"sigma2": self.N.value**2 * freq}})
-        if self.B is not None and bias == "gm":
-            if tc is None:
-                raise InputError(
-                    "bias instability B was read but its correlation time is unknown: pass "
-                    "bias_tc (s) to model it as GM(B) (Quinchia eq. 28-29), bias='bi' or bias=None"
-                )
-            processes.append({"family": "GM", "params": {
-                "beta": 1.0 / tc, "sigma2": (BIAS_AV_FACTOR * self.B.value) ** 2}})
-        elif self.B is not None and bias == "bi":
-            if bias_fc is not None:
-                fc = _positive(bias_fc, "bias_fc (Hz)")
-            else:
-                fc = self.B.f_low if tc is None else 1.0 / (2.0 * math.pi * tc)
-            processes.append({"family": "BI", "params": {"B": self.B.value, "fc": fc}})
-        if self.K is not None:
-            processes.append({"family": "RW", "params": {"sigma2": self.K.value**2 / freq}})
-        if not processes:
-            raise EstimationError("the PSD reading identified no term: no model to build")
-        return {"processes": processes}
-
-    def to_model(self, freq: float | None = None, *, bias: str | None = "gm",
-                 bias_tc: float | None = None, bias_fc: float | None = None) -> Any:
-        """Build the composite model of :meth:`to_spec` with :func:`stochmod.model_from_spec`."""
-        from stochmod import model_from_spec  # the composer; imported lazily
-
-        freq = self.freq if freq is None else check_freq(freq)
-        spec = self.to_spec(freq, bias=bias, bias_tc=bias_tc, bias_fc=bias_fc)
-        return model_from_spec(spec, freq)
-
-
-def _positive(value: Any, what: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{what} must be a positive number, got {value!r}") from None
-    if not (math.isfinite(out) and out > 0):
-        raise InputError(f"{what} must be a positive number, got {value!r}")
-    return out
 
 
 def _shape_frequency(name: str, f: np.ndarray, freq: float) -> np.ndarray:

@@ -43,9 +43,20 @@ class OU(Process):
 
     family: ClassVar[str] = "OUtoy"
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
-        Parameter("beta", "positive", "1/s"),
-        Parameter("sigma2", "positive", "u^2"),
+        Parameter("beta", "positive", "1/s", role="rate"),
+        Parameter("sigma2", "positive", "u^2", role="variance"),
     )
+    ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("rate", "variance"),)
+
+    @classmethod
+    def from_ieee952(cls, coefficients, freq):
+        return cls(beta=coefficients["rate"], sigma2=coefficients["variance"])
+
+    def to_ieee952(self, freq, names):
+        return {"rate": self.beta, "variance": self.sigma2}
+
+    def start(self, wv, freq, *, index=0, count=1, rng=None):
+        return self.with_values(beta=freq / 20.0, sigma2=2.0 * float(wv[0]))
 
     def _phi(self, freq: float) -> float:
         return math.exp(-self.beta / freq)
@@ -164,6 +175,34 @@ class WNNoExample(WN):
 
 
 @attrs.frozen
+class WNWrongRole(WN):
+    """Declares its variance as an amplitude (selection would shrink it by the wrong power)."""
+
+    family: ClassVar[str] = "WNwrongrole"
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("sigma2", "positive", "u^2", role="amplitude"),)
+
+
+@attrs.frozen
+class WNNoRole(WN):
+    """Declares no role."""
+
+    family: ClassVar[str] = "WNnorole"
+    parameter_specs: ClassVar[tuple[Parameter, ...]] = (Parameter("sigma2", "positive", "u^2"),)
+
+
+@attrs.frozen
+class WNWrongIEEE(WN):
+    """Builds itself from N forgetting the sampling frequency: sigma2 = N^2."""
+
+    family: ClassVar[str] = "WNwrongieee"
+
+    @classmethod
+    def from_ieee952(cls, coefficients, freq):
+        return cls(sigma2=coefficients["N"] ** 2)
+
+
+@attrs.frozen
 class OUWrongBlock(OU):
     """Continuous block with twice the driving noise."""
 
@@ -208,7 +247,7 @@ def test_the_kit_passes_a_correct_family(register) -> None:
 @pytest.mark.parametrize(
     ("cls", "expected"),
     [
-        (WNWrongWV, {"wv_monte_carlo", "wv_fallbacks", "wv_jacobian"}),
+        (WNWrongWV, {"wv_monte_carlo", "wv_fallbacks", "wv_jacobian", "ieee952"}),
         (WNWrongPSD, {"psd_integral", "wv_fallbacks"}),
         (WNNegativeWV, {"wv_domain"}),
         (WNNoValidation, {"bad_values"}),
@@ -218,6 +257,9 @@ def test_the_kit_passes_a_correct_family(register) -> None:
         (OUWrongBlock, {"state_space"}),
         (OUEulerNative, {"rediscretisation"}),
         (OUWrongJacobian, {"wv_jacobian"}),
+        (WNWrongRole, {"declarations"}),
+        (WNNoRole, {"declarations"}),
+        (WNWrongIEEE, {"ieee952"}),
     ],
     ids=lambda v: v.__name__ if isinstance(v, type) else None,
 )
@@ -241,9 +283,10 @@ def test_missing_example_is_a_failure_not_a_skip(register) -> None:
     report = check_family(register(WNNoExample), freq=100.0)
     assert set(report.failed) == set(CHECKS) and not report.skipped
     assert "no example" in report.failed["example"]
-    # an instance can still be checked, but the class's missing example still fails
-    report = check_family(WNNoExample(sigma2=2.0), freq=100.0, checks=["example", "psd_integral"])
-    assert report.passed == ("psd_integral",) and set(report.failed) == {"example"}
+    # example is abstract: a family without one has no instance at all
+    assert WNNoExample.__abstractmethods__ == frozenset({"example"})
+    with pytest.raises(TypeError, match="abstract"):
+        WNNoExample(sigma2=2.0)
 
 
 def test_skips_carry_reasons() -> None:
@@ -298,6 +341,17 @@ class AllDomains(Process):
     phi: tuple | None = None
 
     family: ClassVar[str] = "AllDomains"
+
+    def white_variance(self, freq):
+        return 1.0
+
+    def start(self, wv, freq, *, index=0, count=1, rng=None):
+        return self
+
+    @classmethod
+    def example(cls, freq):
+        return cls(a=1.0, b=0.0, c=0.0, d=0.5, phi=(0.0, 0.0, 0.0))
+
     parameter_specs: ClassVar[tuple[Parameter, ...]] = (
         Parameter("a", "positive", "u^2"),
         Parameter("b", "real", "u"),

@@ -63,8 +63,10 @@ class MA1(stochmod.Process):
     family: ClassVar[str] = "MA1"
     description: ClassVar[str] = "first-order moving average X_t = e_t + theta e_{t-1}"
     parameter_specs: ClassVar[tuple[stochmod.Parameter, ...]] = (
-        stochmod.Parameter("theta", "correlation", "1", "MA coefficient (|theta| < 1)"),
-        stochmod.Parameter("sigma2", "positive", "u^2", "innovation variance per sample"),
+        stochmod.Parameter("theta", "correlation", "1", "MA coefficient (|theta| < 1)",
+                           role="shape"),
+        stochmod.Parameter("sigma2", "positive", "u^2", "innovation variance per sample",
+                           role="variance"),
     )
 
     def _values(self) -> tuple[float, float]:
@@ -154,6 +156,10 @@ class MA1(stochmod.Process):
             "N": stochmod.PhysicalValue(abs(1 + theta) * math.sqrt(sigma2 / freq), "u*sqrt(s)",
                                         "white-noise density seen at long averaging times"),
         }
+
+    def ordering_key(self) -> float:
+        """Repeated MA(1) components are ordered by innovation variance, the larger first."""
+        return self._values()[1]
 
     @classmethod
     def example(cls, freq: float) -> MA1:

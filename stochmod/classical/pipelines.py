@@ -1,8 +1,9 @@
 """Ready classical pipelines that end in a composite model, and their comparison on equal terms.
 
 Each pipeline runs one classical method of Quinchia et al. (2013, Section 5) on a static error
-signal and returns a frozen result with the composite ``model`` (built by
-:func:`stochmod.model_from_spec`) and the intermediate readings:
+signal and returns a frozen result with the composite ``model`` (built from the reading's
+coefficients through the registry, :mod:`stochmod.classical.build`) and the intermediate
+readings:
 
 ==========================  =====================================  ==============================
 pipeline                    method (Quinchia 2013)                 model
@@ -32,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod.classical.build import acf_model, allan_model, ar_model, psd_reading_model
 from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.fit.weighting import chi2_variance
 from stochmod.model import Model, as_model, model_from_spec
@@ -126,7 +128,7 @@ def av_model(
         Coefficients the reading looks for (default N, B, K: the 18AV structure; add "Q", "R"
         for quantization and rate ramp).
     gm : {"quinchia", "matched"}
-        GM built from B and Tc (:meth:`AllanReading.to_spec`): Quinchia's
+        GM built from B and Tc (:func:`stochmod.classical.allan_model`): Quinchia's
         ``beta = 1/Tc, sigma = 0.664 B`` or the GM whose Allan peak sits on the floor.
     unit : str, optional
         Signal unit, for the datasheet columns of the summary.
@@ -146,7 +148,7 @@ def av_model(
     """
     freq = check_freq(freq)
     reading = allan_reading(x, freq, terms=terms, gm=gm, unit=unit, **reading_kwargs)
-    return AVModel(model=reading.to_model(freq), reading=reading, freq=freq)
+    return AVModel(model=allan_model(reading, freq), reading=reading, freq=freq)
 
 
 # ----------------------------------------------------------------------------- AVWD ("18AVWD")
@@ -359,7 +361,7 @@ def denoised_ar_model(
         level = None
     den = wavelet_denoise(x, level=level, freq=freq, f_limit=f_limit, **_denoise_options(denoise))
     ar = fit_ar(den.signal, freq, order, max_order=max_order, method=method, criterion=criterion)
-    return DenoisedARModel(model=ar.to_model(freq), ar=ar, denoising=den, freq=freq)
+    return DenoisedARModel(model=ar_model(ar, freq), ar=ar, denoising=den, freq=freq)
 
 
 # ----------------------------------------------------------------------------- PSD
@@ -416,7 +418,7 @@ def psd_model(
     freq : float
         Sampling frequency, Hz.
     bias : {"gm", "bi", None}
-        How a bias instability B enters (:meth:`PSDReading.to_spec`).
+        How a bias instability B enters (:func:`stochmod.classical.psd_reading_model`).
     bias_tc : float, optional
         Correlation time (s) of the GM of B. Default: the Allan reading's Tc of the same
         signal, as the paper does (Table 5 serves both readings).
@@ -442,7 +444,7 @@ def psd_model(
                 "the PSD shows a bias instability B but the Allan variance has no flat region "
                 "to take its correlation time from: pass bias_tc (s), or bias='bi' or None")
         bias_tc = allan.Tc
-    model = reading.to_model(freq, bias=bias, bias_tc=bias_tc, bias_fc=bias_fc)
+    model = psd_reading_model(reading, freq, bias=bias, bias_tc=bias_tc, bias_fc=bias_fc)
     used_tc = bias_tc if reading.B is not None and bias == "gm" else None
     return PSDModel(model=model, reading=reading, allan=allan, bias_tc=used_tc, freq=freq)
 
@@ -519,7 +521,7 @@ def acf_gm_model(
                               **_denoise_options(denoise))
         x = den.signal
     fit = fit_gm_acf(x, freq, max_lag=max_lag)
-    return ACFGMModel(model=fit.to_model(freq, use_ls=use_ls), fit=fit, denoising=den, freq=freq)
+    return ACFGMModel(model=acf_model(fit, freq, use_ls=use_ls), fit=fit, denoising=den, freq=freq)
 
 
 # ----------------------------------------------------------------------------- comparison

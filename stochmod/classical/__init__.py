@@ -1,0 +1,56 @@
+"""The classical pipelines: readings of the Allan variance, PSD, autocorrelation and AR fits
+turned into models through the registry, and their comparison with GMWM fits.
+
+This package sits above :mod:`stochmod.signal` (which returns coefficients) and
+:mod:`stochmod.fit` (whose weighting :func:`compare_models` uses); see docs/architecture.md.
+"""
+
+from stochmod.classical.build import (
+    BIAS_OPTIONS,
+    acf_model,
+    allan_model,
+    ar_model,
+    family_for,
+    model_from_coefficients,
+    psd_reading_model,
+    reading_model,
+)
+from stochmod.classical.pipelines import (
+    ACFGMModel,
+    AVModel,
+    AVWDModel,
+    DenoisedARModel,
+    ModelComparison,
+    ModelScore,
+    PSDModel,
+    acf_gm_model,
+    av_model,
+    avwd_model,
+    compare_models,
+    denoised_ar_model,
+    psd_model,
+)
+
+__all__ = [
+    "BIAS_OPTIONS",
+    "family_for",
+    "model_from_coefficients",
+    "allan_model",
+    "psd_reading_model",
+    "acf_model",
+    "ar_model",
+    "reading_model",
+    "AVModel",
+    "AVWDModel",
+    "DenoisedARModel",
+    "PSDModel",
+    "ACFGMModel",
+    "ModelScore",
+    "ModelComparison",
+    "av_model",
+    "avwd_model",
+    "denoised_ar_model",
+    "psd_model",
+    "acf_gm_model",
+    "compare_models",
+]
