@@ -26,36 +26,26 @@ PACKAGE = REPO / "stochmod"
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("bottom", ("stochmod.errors", "stochmod._validation", "stochmod._fields", "stochmod.params",
                 "stochmod.statespace", "stochmod.geometric", "stochmod.reporting",
+                "stochmod.coefficients", "stochmod.timing",
                 # the wavelet filters (imports only the bottom): the contract's theory, the
                 # generic WV fallbacks of Process, needs their squared gains
                 "stochmod.signal.modwt")),
     # the contract and the composer; units (conversions) and io (the Recording container and
     # the readers' dispatch) sit with them, so that every estimator may take a Recording
     ("contract", ("stochmod.hookspecs", "stochmod.registry", "stochmod.process", "stochmod.model",
-                  "stochmod.theory", "stochmod.units", "stochmod.io")),
+                  "stochmod.theory", "stochmod.units", "stochmod.io", "stochmod.lattice")),
     ("signal", ("stochmod.signal",)),
     ("fit", ("stochmod.fit",)),
     # the classical pipelines that end in models, navigation, combiners, readers
-    ("applications", ("stochmod.nav", "stochmod.pipelines", "stochmod.classical",
-                      "stochmod.combiners", "stochmod.readers")),
+    ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination")),
     ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
-             "stochmod.testing")),
+             "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant")),
 )
 
 #: Lazy imports the issue allows: an operator returning an object of a module that imports
 #: this one (``Process.__add__`` / ``__mul__`` return a Model). They must stay inside functions.
 OPERATOR_IMPORTS = {("stochmod.process", "stochmod.model")}
 
-#: removed by issue 9 part A: signal/ modules import the top-level package lazily to reach the
-#: composer, and signal/pipelines.py imports fit/ (the pipelines move above fit/). The lead
-#: deletes this list at merge; an entry that no longer occurs fails the test.
-PART_A_VIOLATIONS = {
-    ("stochmod.signal.acf", "stochmod"),
-    ("stochmod.signal.allan_reading", "stochmod"),
-    ("stochmod.signal.ar_fit", "stochmod"),
-    ("stochmod.signal.psd", "stochmod"),
-    ("stochmod.signal.pipelines", "stochmod.fit.weighting"),
-}
 
 
 #: Private names taken across modules outside issue 9 part B's partition (signal/): modwt's
@@ -169,24 +159,16 @@ def test_every_module_has_a_layer() -> None:
 def test_imports_point_down_the_layers() -> None:
     bad = []
     for e in _core_edges():
-        if (e.source, e.target) in PART_A_VIOLATIONS:
-            continue
         if _layer(e.target) > _layer(e.source):
             bad.append(f"{_where(e)}: {LAYERS[_layer(e.source)][0]} imports "
                        f"{LAYERS[_layer(e.target)][0]}")
     assert not bad, "imports against DESIGN.md 'Layers':\n" + "\n".join(bad)
 
 
-def test_the_part_a_allow_list_is_not_stale() -> None:
-    found = {(e.source, e.target) for e in _core_edges()}
-    stale = PART_A_VIOLATIONS - found
-    assert not stale, f"delete these entries of PART_A_VIOLATIONS, they no longer occur: {stale}"
-
-
 def test_no_import_cycles_lazy_imports_included() -> None:
     graph = nx.DiGraph()
     for e in _core_edges():
-        if e.type_only or (e.source, e.target) in PART_A_VIOLATIONS or e.source == e.target:
+        if e.type_only or e.source == e.target:
             continue
         if (e.source, e.target) in OPERATOR_IMPORTS:
             assert e.lazy, f"{_where(e)} is allowed only inside the operator that needs it"
