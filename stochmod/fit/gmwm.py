@@ -25,8 +25,8 @@ from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit.weighting import (
     WEIGHTINGS,
-    chi2_variance,
     data_covariance,
+    level_variances,
     model_covariance,
     weighting_from_covariance,
 )
@@ -217,7 +217,8 @@ class GMWMResult:
         if self._signal is not None:
             return data_covariance(self._signal, self.empirical, self.levels)
         return bootstrap_covariance(self.model, self.empirical.n, self.levels,
-                                    reps=100, rng=self._rng_seed, wavelet=self.empirical.wavelet)
+                                    reps=100, rng=self._rng_seed, wavelet=self.empirical.wavelet,
+                                    **_estimator_options(self.empirical))
 
     @functools.cached_property
     def null_wv_covariance(self) -> np.ndarray:
@@ -234,7 +235,8 @@ class GMWMResult:
         without a PSD); depends on the fitted model only, not on the data's V."""
         try:
             return model_covariance(self.model, self.empirical.n_coef[: self.levels],
-                                    self.empirical.wavelet)
+                                    self.empirical.wavelet,
+                                    variance_ratio=self.empirical.variance_ratio[: self.levels])
         except (NotImplementedError, EstimationError):
             return None
 
@@ -362,8 +364,10 @@ class GMWMResult:
     def summary(self) -> str:
         """Readable report: estimates with intervals (canonical and physical), objective, J-test."""
         pct = f"{100 * (1 - self.alpha):g}%"
-        head = (f"GMWM fit of {self.model.name} ({self.weighting} weighting, J = {self.levels}, "
-                f"N = {self.empirical.n}, freq = {self.model.freq:g} Hz)")
+        emp = self.empirical
+        robust = (f", robust WV: {emp.rho}, efficiency {emp.efficiency:g}" if emp.robust else "")
+        head = (f"GMWM fit of {self.model.name} ({self.weighting} weighting{robust}, "
+                f"J = {self.levels}, N = {emp.n}, freq = {self.model.freq:g} Hz)")
         rows = [[e.name, e.value, e.std_error, e.low, e.high, e.unit] for e in self.parameters()]
         table = format_table(["parameter", "estimate", "std.err", f"{pct} low", f"{pct} high", "unit"],
                              rows, title=head)
@@ -375,6 +379,8 @@ class GMWMResult:
             lines.append(f"J-test (eq. 27): statistic {jt.statistic:.4g}, df {jt.df}, p-value {jt.pvalue:.3g}")
         lines.append(f"converged: {self.converged} ({self.n_starts} local searches, "
                      f"{self.n_evaluations} evaluations): {self.message}")
+        if emp.contamination is not None:
+            lines.extend(["", emp.contamination.summary()])
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -461,14 +467,25 @@ def _units(model: Model) -> np.ndarray:
     return np.asarray(out, dtype=object)
 
 
+def _estimator_options(emp: WaveletVariance) -> dict[str, Any]:
+    """The wvar options that reproduce `emp`'s estimator (robust or classical)."""
+    if not emp.robust:
+        return {}
+    return {"robust": True, "efficiency": emp.efficiency, "rho": emp.rho}
+
+
 def bootstrap_covariance(model: Model, n: int, levels: int, *, reps: int = 100,
-                         rng: np.random.Generator | int = 0, wavelet: str = "haar") -> np.ndarray:
+                         rng: np.random.Generator | int = 0, wavelet: str = "haar",
+                         robust: bool = False, efficiency: float = 0.6,
+                         rho: str = "biweight") -> np.ndarray:
     """Parametric bootstrap covariance of the empirical WV (eq. 35): `reps` simulations of
-    `n` samples from `model`, seeded."""
+    `n` samples from `model`, seeded; with `robust`, of the robust WV (same options as
+    :func:`~stochmod.signal.wavelet_variance.wvar`)."""
     reps = check_positive_int(reps, name="reps", minimum=2)
     gen = as_generator(rng)
+    options = {"robust": True, "efficiency": efficiency, "rho": rho} if robust else {}
     sims = np.array([
-        wvar(model.simulate(n, g), model.freq, wavelet=wavelet, levels=levels).wv
+        wvar(model.simulate(n, g), model.freq, wavelet=wavelet, levels=levels, **options).wv
         for g in gen.spawn(reps)
     ])
     return np.cov(sims, rowvar=False)
@@ -491,6 +508,8 @@ def gmwm(
     binding: str = "auto",
     R: int = 10,
     max_sim: int = 2**20,
+    robust: bool = False,
+    efficiency: float = 0.6,
 ) -> GMWMResult:
     """Fit a composite model by the GMWM (eq. 20).
 
@@ -537,6 +556,16 @@ def gmwm(
         Length of the simulated series in multiples of N (indirect inference only).
     max_sim : int
         Cap on the simulated length, samples (never below N).
+    robust : bool
+        Match the robust wavelet variance (:mod:`stochmod.signal.robust_wv`, Tukey biweight
+        M-estimate of each level's coefficient variance) instead of the classical one: a few
+        outliers in the record no longer drive the fit. Its variances (inflated by
+        ``kappa_j``) enter the diagonal weighting, its covariance (eq. 17 on clipped
+        coefficients, scaled by ``kappa``) the optimal weighting and the inference, the
+        robust WV of the simulations the bootstrap. Implied when `data` is a robust
+        WaveletVariance.
+    efficiency : float
+        Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
 
     Returns
     -------
@@ -551,6 +580,9 @@ def gmwm(
                          "or pass a (J, J) matrix")
     signal = None
     if isinstance(data, WaveletVariance):
+        if robust and not data.robust:
+            raise InputError("robust=True needs the signal or a robust WaveletVariance "
+                             "(wvar(x, freq, robust=True)); this one is classical")
         emp = data
         freq = emp.freq if freq is None else check_freq(freq)
         if levels is not None:
@@ -564,7 +596,8 @@ def gmwm(
         signal = as_signal(data, name="data", min_length=8)
         if np.ptp(signal) == 0:
             raise InputError("data is constant: it has no noise to model")
-        emp = wvar(signal, freq, wavelet=wavelet, levels=levels)
+        emp = wvar(signal, freq, wavelet=wavelet, levels=levels,
+                   **({"robust": True, "efficiency": efficiency} if robust else {}))
     J = emp.wv.size if levels is None else levels
     nu_hat = np.asarray(emp.wv[:J], float)
     if np.any(nu_hat <= 0):
@@ -590,7 +623,7 @@ def gmwm(
     if custom is not None:
         omega = _checked_omega(custom, J)
     elif weighting == "diagonal":
-        omega = np.diag(1.0 / chi2_variance(nu_hat, emp.n_coef[:J], emp.levels[:J]))
+        omega = np.diag(1.0 / level_variances(emp, J))
     elif weighting == "identity":
         omega = np.eye(J)
     elif weighting == "optimal":
@@ -603,7 +636,7 @@ def gmwm(
                      n_random=n_random, starts=starts, rng=rng, binding=binding, R=R,
                      max_sim=max_sim)
         covariance = bootstrap_covariance(first.model, emp.n, J, reps=bootstrap_reps, rng=rng,
-                                          wavelet=emp.wavelet)
+                                          wavelet=emp.wavelet, **_estimator_options(emp))
         omega = weighting_from_covariance(covariance)
         starts = (*starts, first.model)
 

@@ -37,11 +37,17 @@ from stochmod._validation import as_signals, check_freq, check_positive_int
 from stochmod.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit import criteria as _criteria
 from stochmod.fit.gmwm import _BOUND, GMWMResult, _canonical, _Problem, _search
-from stochmod.fit.weighting import WEIGHTINGS, chi2_variance, data_covariance, weighting_from_covariance
+from stochmod.fit.weighting import (
+    WEIGHTINGS,
+    data_covariance,
+    level_variances,
+    weighting_from_covariance,
+)
 from stochmod.io import Recording
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
 from stochmod.reporting import format_table
+from stochmod.signal.robust_wv import check_efficiency
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
@@ -200,15 +206,16 @@ class _Task:
         return not (self.starts or self.screen)
 
 
-def _prepare(item: tuple[np.ndarray, float, int | None, str]) -> _Column:
-    """Empirical WV and weighting of one signal (with V, eq. 17, for the optimal weighting)."""
-    x, freq, levels, weighting = item
-    emp = wvar(x, freq, levels=levels)
+def _prepare(item: tuple[np.ndarray, float, int | None, str, dict]) -> _Column:
+    """Empirical WV and weighting of one signal (with V, eq. 17, for the optimal weighting);
+    the last item holds wvar's estimator options (``robust``, ``efficiency``)."""
+    x, freq, levels, weighting, options = item
+    emp = wvar(x, freq, levels=levels, **options)
     J = emp.wv.size
     if np.any(emp.wv <= 0):
         raise InputError("the empirical wavelet variance has non-positive levels (constant stretches?)")
     if weighting == "diagonal":
-        return _Column(emp, np.diag(1.0 / chi2_variance(emp.wv, emp.n_coef, emp.levels)))
+        return _Column(emp, np.diag(1.0 / level_variances(emp, J)))
     if weighting == "identity":
         return _Column(emp, np.eye(J))
     V = data_covariance(x, emp, J)
@@ -590,6 +597,8 @@ def select(
     levels: int | None = None,
     *,
     names: Sequence[str] | None = None,
+    robust: bool = False,
+    efficiency: float = 0.6,
 ) -> SelectionResult | list[SelectionResult]:
     """Select a composite model by fitting every candidate with the GMWM and ranking them.
 
@@ -624,6 +633,12 @@ def select(
         Number of wavelet levels J (default: all the signal allows).
     names : sequence of str, optional
         Column names for the results (default: the Recording's, else "0", "1", ...).
+    robust : bool
+        Fit every candidate to the robust wavelet variance (see :func:`stochmod.gmwm`): a few
+        outliers no longer call for spurious components; its variances and covariance give
+        Omega and V. The diagnostic is ``result.empirical.contamination``.
+    efficiency : float
+        Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
 
     Returns
     -------
@@ -641,6 +656,7 @@ def select(
     seed = _base_seed(rng)
     if levels is not None:
         levels = check_positive_int(levels, name="levels", minimum=1)
+    options = {"robust": True, "efficiency": check_efficiency(efficiency)} if robust else {}
     data, freq, cols, single = _signals(x, freq, names)
     if max_counts is None and candidates is None:
         max_counts = {"GM": 3} if "GM" in families else {}
@@ -653,7 +669,7 @@ def select(
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
-        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, weighting))
+        shared = [f.result() for f in [pool.submit(_prepare, (data[:, k], freq, levels, weighting, options))
                                        for k in range(len(cols))]]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():

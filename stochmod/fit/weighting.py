@@ -15,6 +15,7 @@ __all__ = [
     "COVARIANCE_MIN_EDF",
     "equivalent_dof",
     "chi2_variance",
+    "level_variances",
     "decoupled_covariance",
     "data_covariance",
     "model_covariance",
@@ -43,6 +44,15 @@ def chi2_variance(wv: np.ndarray, n_coef: np.ndarray, level: np.ndarray) -> np.n
     2000, eq. 313c): the same approximation that gives the chi-square intervals.
     """
     return 2.0 * np.asarray(wv, float) ** 2 / equivalent_dof(n_coef, level)
+
+
+def level_variances(emp: WaveletVariance, levels: int) -> np.ndarray:
+    """Variances of the empirical WV `emp` at levels 1..`levels` for the diagonal weighting,
+    unit^4: :func:`chi2_variance` times the estimator's variance ratio ``kappa_j`` (1 for the
+    classical estimator; for the robust one, its variance over the classical one's,
+    :mod:`stochmod.signal.robust_wv`)."""
+    return (chi2_variance(emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+            * emp.variance_ratio[:levels])
 
 
 def weighting_from_covariance(V: np.ndarray) -> np.ndarray:
@@ -114,12 +124,20 @@ def decoupled_covariance(V: np.ndarray, wv: np.ndarray, n_coef: np.ndarray, leve
 def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndarray:
     """Covariance of the empirical WV `emp` of the signal `x` at levels 1..`levels`: the
     asymptotic estimator of eq. 17 (:func:`stochmod.signal.wv_covariance.wv_covariance`),
-    with the deep levels decoupled (:func:`decoupled_covariance`), unit^4."""
-    V = wv_covariance(x, levels, wavelet=emp.wavelet)
-    return decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+    with the deep levels decoupled (:func:`decoupled_covariance`), unit^4.
+
+    For a robust `emp` (``emp.robust``), eq. 17 runs on the coefficients clipped at
+    ``c sqrt(nu_j)`` (outliers do not dominate it) and is scaled by the robust estimator's
+    variance ratios, ``V_jl sqrt(kappa_j kappa_l)`` (:mod:`stochmod.signal.robust_wv`)."""
+    clip = emp.tuning * np.sqrt(emp.wv[:levels]) if emp.robust and emp.efficiency < 1 else None
+    V = wv_covariance(x, levels, wavelet=emp.wavelet, clip=clip)
+    V = decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+    ratio = np.sqrt(emp.variance_ratio[:levels])
+    return V * np.outer(ratio, ratio)
 
 
-def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") -> np.ndarray:
+def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar", *,
+                     variance_ratio: np.ndarray | None = None) -> np.ndarray:
     """Large-sample covariance of the empirical WV under `model` (J x J, unit^4).
 
     The Gaussian components' summed PSD gives :func:`stochmod.theory.wv_covariance_from_psd`;
@@ -136,6 +154,8 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") ->
         Number of coefficients M_j of the empirical WV at levels 1..J.
     wavelet : str
         Wavelet filter of the empirical WV.
+    variance_ratio : ndarray (J,), optional
+        ``kappa_j`` of a robust estimator: the result is scaled to ``V_jl sqrt(kappa_j kappa_l)``.
     """
     if model.freq is None:
         raise SpecError("the model is not bound to a sampling frequency: use model.bind(freq)")
@@ -152,4 +172,7 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") ->
         total += wv_covariance_from_psd(
             lambda f: np.sum([p.psd(f, freq) for p in spectral], axis=0), n_coef, freq,
             wavelet=wavelet, breakpoints=breakpoints)
+    if variance_ratio is not None:
+        ratio = np.sqrt(np.asarray(variance_ratio, dtype=np.float64))
+        total = total * np.outer(ratio, ratio)
     return total

@@ -308,6 +308,39 @@ def _power_sums(w: np.ndarray, scale: float, core: float
     return sums, idx
 
 
+def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: float,
+                  c2: float, delta: float, M: int) -> tuple[np.ndarray, np.ndarray, Any]:
+    """The estimating function ``F(v) = mean(chi(u / v)) - delta`` from the power sums of the
+    core and the sorted others (those inside the support for v form a prefix)."""
+    powers = np.arange(6.0)
+    order = np.argsort(ub, kind="stable")
+    ub_sorted = ub[order]
+    cum = np.vstack([np.zeros(6), np.cumsum(ub_sorted[:, None] ** powers, axis=0)])
+
+    def score(v: float) -> float:
+        k = int(np.searchsorted(ub_sorted, c2 * v, side="right"))
+        poly = coef * v**-powers
+        total = float((sums[1:] + cum[k, 1:]) @ poly[1:])
+        return (total + outside * (ub_sorted.size - k)) / M - delta
+
+    return order, ub_sorted, score
+
+
+def _scan_largest_root(score: Any, u_max: float, u_min: float, delta: float) -> float:
+    """Largest root of `score`, scanning down from where every ``chi(u/v) <= delta / 10``."""
+    v_hi = 10.0 * u_max / delta
+    f_hi = score(v_hi)
+    v = v_hi
+    while v > 1e-6 * u_min:
+        v_new = 0.9 * v
+        f_new = score(v_new)
+        if f_new > 0 > f_hi:
+            return optimize.brentq(score, v_new, v, xtol=1e-15 * v, rtol=1e-13)
+        v, f_hi = v_new, f_new
+    raise EstimationError("the robust scale equation has no root: the coefficients are too "
+                          "concentrated (a few distinct values)")
+
+
 def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
     """M-estimate of the variance of a zero-mean series: the largest root of
     ``mean(chi(w^2 / v)) = delta``.
@@ -353,26 +386,21 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
     for _ in range(60):
         sums, idx = _power_sums(wn, v0 / scale, c2 * lo * v0 / scale)
         ub = np.square(wn[idx]) * (scale / v0)  # u / v0 of the coefficients outside the core
-        order = np.argsort(ub, kind="stable")
-        ub_sorted = ub[order]
-        # cumulative power sums of the sorted big ones: the inside set for v is a prefix
-        cum = np.vstack([np.zeros(6), np.cumsum(ub_sorted[:, None] ** powers, axis=0)])
-
-        def score(v: float) -> float:
-            k = int(np.searchsorted(ub_sorted, c2 * v, side="right"))
-            poly = coef * v**-powers
-            total = float((sums[1:] + cum[k, 1:]) @ poly[1:])
-            return (total + rho.outside * (ub_sorted.size - k)) / M - delta
-
+        order, ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M)
         f_lo, f_hi = score(lo), score(hi)
         if f_lo > 0 and f_hi < 0:
             v = optimize.brentq(score, lo, hi, xtol=1e-15, rtol=1e-13)
             break
-        if f_hi >= 0:
-            lo, hi = hi, 4.0 * hi
-        else:
-            lo, hi = lo / 4.0, lo
-    else:  # pragma: no cover - the bracket search always ends for non-degenerate data
+        if f_lo <= 0:  # the largest root may lie anywhere below: scan all coefficients
+            idx = np.arange(M)
+            ub = np.square(wn) * (scale / v0)
+            order, ub_sorted, score = _sorted_score(ub, np.zeros(6), coef, rho.outside, c2,
+                                                    delta, M)
+            v = _scan_largest_root(score, float(ub_sorted[-1]), float(ub_sorted[ub_sorted > 0][0]),
+                                   delta)
+            break
+        lo, hi = hi, 4.0 * hi  # F(hi) >= 0: the root is above
+    else:  # pragma: no cover - F -> -delta as v -> inf, so the upward search ends
         raise EstimationError("the robust scale equation has no root in a wide bracket")
     u_sorted = ub_sorted / v  # in units of the estimate
     n_rejected = int(u_sorted.size - np.searchsorted(u_sorted, c2, side="right"))
