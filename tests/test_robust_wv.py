@@ -267,3 +267,24 @@ def test_bad_input():
     steps = np.repeat(np.arange(10.0), 10)  # level-1 coefficients mostly exactly zero
     with pytest.raises(InputError, match="zero"):
         wvar(steps, 1.0, robust=True)
+
+
+def test_no_root_falls_back_to_the_classical_level():
+    """A third of the coefficients zero, the rest equal: mean chi <= chi_max / 3 < delta for
+    every v, so the M-estimate does not exist; at a deep random-walk level (few effectively
+    independent coefficients) the same happens and the level keeps the classical estimate."""
+    from stochmod.signal.robust_wv import NoRootError
+
+    chi = scale_rho(0.6)
+    u = np.linspace(1e-4, chi.c**2, 20001)
+    assert chi.chi(u).max() / 3 < chi.consistency
+    with pytest.raises(NoRootError):
+        m_scale(np.tile([0.0, 0.0, 2.0], 1000), chi)
+    x = np.cumsum(np.random.default_rng(18).standard_normal(2**12))
+    rob, cla = wvar(x, 1.0, robust=True), wvar(x, 1.0)
+    levels = rob.contamination.classical_levels
+    assert levels == (10, 11)
+    for j in levels:
+        assert rob.wv[j - 1] == pytest.approx(cla.wv[j - 1], rel=1e-12)
+        assert rob.variance_ratio[j - 1] == 1.0
+    assert "no root: classical estimate" in rob.summary()

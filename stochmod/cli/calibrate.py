@@ -80,6 +80,16 @@ def _safe(fn: Any) -> Any:
         return None
 
 
+def _robust_dict(sel: SelectionResult) -> dict[str, Any] | None:
+    """The robust estimator's settings and contamination diagnostic (None if classical)."""
+    emp = sel.empirical
+    if not emp.robust:
+        return None
+    return {"rho": emp.rho, "efficiency": emp.efficiency, "tuning": emp.tuning,
+            "variance_ratio": emp.variance_ratio,
+            "contamination": None if emp.contamination is None else emp.contamination.to_dict()}
+
+
 def calibration_report(results: list[SelectionResult], rec: Recording, freq: float, dt: float,
                        scale: float = 1.0) -> dict[str, Any]:
     """The content of ``calibration.json`` (JSON-safe after ``to_jsonable``)."""
@@ -100,6 +110,7 @@ def calibration_report(results: list[SelectionResult], rec: Recording, freq: flo
             "weighting": sel.weighting,
             "ranking": [attrs.asdict(r) for r in sel.ranking],
             "augmentation": _block_dict(best.model.augment(dt)),
+            "robust": _robust_dict(sel),
         }
     imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
     return {
@@ -178,5 +189,8 @@ def run(args: argparse.Namespace) -> int:
                          s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
                         for s in results]))
     written = [str(path)] + [str(f) for f in figures]
+    for sel in results:
+        if sel.empirical.contamination is not None:
+            print(f"\n{sel.column}: {sel.empirical.contamination.summary()}")
     print(f"\nwrote {', '.join(written)}")
     return 0

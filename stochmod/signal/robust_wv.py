@@ -86,6 +86,7 @@ __all__ = [
     "MScale",
     "m_scale",
     "Contamination",
+    "NoRootError",
     "robust_wvar",
     "sandwich_ratio",
 ]
@@ -326,6 +327,11 @@ def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: f
     return order, ub_sorted, score
 
 
+class NoRootError(EstimationError):
+    """The scale equation has no root: ``mean(chi(w^2 / v)) < delta`` for every v (a series
+    with very few effectively independent values, e.g. a deep level of a random walk)."""
+
+
 def _scan_largest_root(score: Any, u_max: float, u_min: float, delta: float) -> float:
     """Largest root of `score`, scanning down from where every ``chi(u/v) <= delta / 10``."""
     v_hi = 10.0 * u_max / delta
@@ -337,8 +343,8 @@ def _scan_largest_root(score: Any, u_max: float, u_min: float, delta: float) -> 
         if f_new > 0 > f_hi:
             return optimize.brentq(score, v_new, v, xtol=1e-15 * v, rtol=1e-13)
         v, f_hi = v_new, f_new
-    raise EstimationError("the robust scale equation has no root: the coefficients are too "
-                          "concentrated (a few distinct values)")
+    raise NoRootError("the robust scale equation has no root: mean(chi(w^2/v)) < delta for "
+                      "every v (too few effectively independent coefficients)")
 
 
 def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
@@ -361,7 +367,8 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
     Raises
     ------
     EstimationError
-        If most coefficients are exactly zero (no scale to estimate).
+        If most coefficients are exactly zero (no scale to estimate);
+        :class:`NoRootError` if the equation has no root.
     """
     w = np.ascontiguousarray(w, dtype=np.float64)
     M = w.size
@@ -429,6 +436,10 @@ class Contamination:
         largest coefficients beyond ``c / sqrt(2)``, largest first (at most 5).
     worst_score : tuple of ndarray
         Their size in robust standard deviations.
+    classical_levels : tuple of int
+        Levels where the scale equation had no root (too few effectively independent
+        coefficients, typically the deepest of a random walk): the classical mean of squares
+        stands there, with the classical variance (``kappa_j = 1``).
     """
 
     levels: np.ndarray = array_field()
@@ -437,6 +448,7 @@ class Contamination:
     expected_share: float
     worst_time: tuple[np.ndarray, ...]
     worst_score: tuple[np.ndarray, ...]
+    classical_levels: tuple[int, ...] = ()
 
     def summary(self) -> str:
         """Table of the share rejected per level against the Gaussian share, and the worst times."""
@@ -445,6 +457,8 @@ class Contamination:
                                           self.worst_score):
             worst = ", ".join(f"{format_number(a, 5)} s ({b:.0f} sd)" for a, b in
                               zip(times[:3], scores[:3])) or "-"
+            if int(j) in self.classical_levels:
+                worst = "no root: classical estimate"
             rows.append((int(j), t, 100.0 * s, worst))
         title = (f"Contamination: share of coefficients beyond c (Gaussian: "
                  f"{format_number(100 * self.expected_share, 3)}%) and worst positions")
@@ -460,6 +474,7 @@ class Contamination:
             "expected_share": float(self.expected_share),
             "worst_time": [[float(t) for t in a] for a in self.worst_time],
             "worst_score": [[float(t) for t in a] for a in self.worst_score],
+            "classical_levels": [int(j) for j in self.classical_levels],
         }
 
 
@@ -576,10 +591,16 @@ def robust_wvar(
     buf = np.zeros(size)
     previous = m1
     lows: list[float] = []
+    classical: list[int] = []
     highs: list[float] = []
     for j, _, m in _pyramid(x, n_levels, wavelet, buf):
         try:
             est = m_scale(buf[:m], chi)
+        except NoRootError:
+            w = buf[:m]
+            est = MScale(float(np.dot(w, w)) / m, 0, np.empty(0, np.int64), np.empty(0))
+            classical.append(j)
+            ratio[j - 1] = 1.0
         except EstimationError as exc:
             raise InputError(f"level {j}: {exc}") from None
         wv[j - 1] = est.variance
@@ -594,7 +615,8 @@ def robust_wvar(
             bound = chi.c * math.sqrt(est.variance)
             np.clip(buf[:m], -bound, bound, out=buf[:m])
             powers = _autocorrelation_powers(buf, m, _HERMITE_TERMS + 1)
-            ratio[j - 1] = sandwich_ratio(chi, powers)
+            if j not in classical:
+                ratio[j - 1] = sandwich_ratio(chi, powers)
             # classical Gaussian variance of the level (powers[0] nu^2 = S_j), times kappa
             half = special.ndtri(1.0 - alpha / 2.0) * est.variance * math.sqrt(
                 ratio[j - 1] * powers[0] / m)
@@ -611,7 +633,7 @@ def robust_wvar(
     for a in (*arrays, ratio, share):
         a.setflags(write=False)
     diag = Contamination(js, tau, share, chi.rejection_probability, tuple(worst_t),
-                         tuple(worst_s))
+                         tuple(worst_s), tuple(classical))
     return WaveletVariance(*arrays, freq=freq, wavelet=wavelet, n=n, ci_method=ci, alpha=alpha,
                            robust=True, efficiency=efficiency, rho=rho, tuning=chi.c,
                            variance_ratio=ratio, contamination=diag)
