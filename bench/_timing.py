@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import time
+import tracemalloc
 from collections.abc import Callable
 
-__all__ = ["best_of"]
+__all__ = ["best_of", "peak_ratio"]
 
 
 def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
@@ -16,3 +17,12 @@ def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return min(times)
+
+
+def peak_ratio(fn: Callable[[], object], nbytes: int) -> float:
+    """Peak memory traced (tracemalloc) during one call of `fn`, relative to `nbytes`."""
+    tracemalloc.start()
+    fn()
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return peak / nbytes
