@@ -244,6 +244,7 @@ def test_efficiency_one_is_the_classical_estimator():
     x = np.random.default_rng(1).standard_normal(3000)
     a, b = wvar(x, 2.0), wvar(x, 2.0, robust=True, efficiency=1.0)
     assert np.array_equal(a.wv, b.wv) and b.robust and b.efficiency == 1.0
+    assert json.loads(json.dumps(b.to_dict(), allow_nan=False))["tuning"] is None
 
 
 @pytest.mark.parametrize("eff", [0.0, -0.2, 1.5, float("nan"), "high", True, None])

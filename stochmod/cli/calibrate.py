@@ -85,9 +85,9 @@ def _robust_dict(sel: SelectionResult) -> dict[str, Any] | None:
     emp = sel.empirical
     if not emp.robust:
         return None
-    return {"rho": emp.rho, "efficiency": emp.efficiency, "tuning": emp.tuning,
-            "variance_ratio": emp.variance_ratio,
-            "contamination": None if emp.contamination is None else emp.contamination.to_dict()}
+    full = emp.to_dict()
+    return {key: full[key] for key in ("rho", "efficiency", "tuning", "variance_ratio",
+                                       "contamination")}
 
 
 def calibration_report(results: list[SelectionResult], rec: Recording, freq: float, dt: float,

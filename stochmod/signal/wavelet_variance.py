@@ -140,7 +140,7 @@ class WaveletVariance:
             "robust": bool(self.robust),
             "efficiency": float(self.efficiency),
             "rho": self.rho,
-            "tuning": float(self.tuning),
+            "tuning": None if np.isinf(self.tuning) else float(self.tuning),  # classical: None
             "variance_ratio": [float(r) for r in self.variance_ratio],
             "contamination": None if self.contamination is None else self.contamination.to_dict(),
         }
