@@ -417,6 +417,10 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
                   np.sqrt(ub[top] / v))
 
 
+def _arrays_equal(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> bool:
+    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
 @attrs.frozen
 class Contamination:
     """Where the robust wavelet variance found outliers.
@@ -446,8 +450,8 @@ class Contamination:
     tau: np.ndarray = array_field()
     share: np.ndarray = array_field()
     expected_share: float
-    worst_time: tuple[np.ndarray, ...]
-    worst_score: tuple[np.ndarray, ...]
+    worst_time: tuple[np.ndarray, ...] = attrs.field(eq=attrs.cmp_using(eq=_arrays_equal))
+    worst_score: tuple[np.ndarray, ...] = attrs.field(eq=attrs.cmp_using(eq=_arrays_equal))
     classical_levels: tuple[int, ...] = ()
 
     def summary(self) -> str:
