@@ -156,3 +156,9 @@ def test_cli_calibrate_and_wv_robust(tmp_path, capsys):
     assert wn["value"] == pytest.approx(3e-6, rel=0.1)
     assert cli_main(["wv", str(path), "--freq", str(freq), "--robust", "--levels", "5"]) == 0
     assert "Robust wavelet variance (biweight" in capsys.readouterr().out
+    assert cli_main(["fit", str(path), "--freq", str(freq), "--model", "GM+WN", "--robust",
+                     "--efficiency", "0.7"]) == 0
+    assert "robust WV: biweight, efficiency 0.7" in capsys.readouterr().out
+    assert cli_main(["fit", str(path), "--freq", str(freq), "--model", "GM+WN", "--robust",
+                     "--efficiency", "2"]) == 2
+    assert "efficiency" in capsys.readouterr().err
