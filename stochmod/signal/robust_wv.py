@@ -293,10 +293,10 @@ def _power_sums(w: np.ndarray, scale: float, core: float
         e = min(s + _CHUNK, w.size)
         u, u2, u3 = bufs[:, : e - s]
         np.square(w[s:e], out=u)
-        out = np.greater(u, core, out=flags[: e - s])
-        if out.any():
-            big.append(np.flatnonzero(out) + s)
-            u[out] = 0.0
+        local = np.flatnonzero(np.greater(u, core, out=flags[: e - s]))
+        if local.size:
+            big.append(local + s)
+            u[local] = 0.0
         np.multiply(u, u, out=u2)
         np.multiply(u2, u, out=u3)
         sums[1] += u.sum()
@@ -316,7 +316,10 @@ def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: f
     powers = np.arange(6.0)
     order = np.argsort(ub, kind="stable")
     ub_sorted = ub[order]
-    cum = np.vstack([np.zeros(6), np.cumsum(ub_sorted[:, None] ** powers, axis=0)])
+    table = np.zeros((ub.size + 1, 6))  # row k: power sums of the k smallest
+    for p in range(1, 6):
+        table[1:, p] = ub_sorted if p == 1 else table[1:, p - 1] * ub_sorted
+    cum = np.cumsum(table, axis=0)
 
     def score(v: float) -> float:
         k = int(np.searchsorted(ub_sorted, c2 * v, side="right"))
@@ -597,7 +600,7 @@ def robust_wvar(
     lows: list[float] = []
     classical: list[int] = []
     highs: list[float] = []
-    for j, _, m in _pyramid(x, n_levels, wavelet, buf):
+    for j, _, m in _pyramid(x, n_levels, wavelet, buf, sumsq=False):
         try:
             est = m_scale(buf[:m], chi)
         except NoRootError:
