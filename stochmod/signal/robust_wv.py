@@ -310,12 +310,11 @@ def _power_sums(w: np.ndarray, scale: float, core: float
 
 
 def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: float,
-                  c2: float, delta: float, M: int) -> tuple[np.ndarray, np.ndarray, Any]:
+                  c2: float, delta: float, M: int) -> tuple[np.ndarray, Any]:
     """The estimating function ``F(v) = mean(chi(u / v)) - delta`` from the power sums of the
     core and the sorted others (those inside the support for v form a prefix)."""
     powers = np.arange(6.0)
-    order = np.argsort(ub, kind="stable")
-    ub_sorted = ub[order]
+    ub_sorted = np.sort(ub)
     table = np.zeros((ub.size + 1, 6))  # row k: power sums of the k smallest
     for p in range(1, 6):
         table[1:, p] = ub_sorted if p == 1 else table[1:, p - 1] * ub_sorted
@@ -327,7 +326,7 @@ def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: f
         total = float((sums[1:] + cum[k, 1:]) @ poly[1:])
         return (total + outside * (ub_sorted.size - k)) / M - delta
 
-    return order, ub_sorted, score
+    return ub_sorted, score
 
 
 class NoRootError(EstimationError):
@@ -396,7 +395,7 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
     for _ in range(60):
         sums, idx = _power_sums(wn, v0 / scale, c2 * lo * v0 / scale)
         ub = np.square(wn[idx]) * (scale / v0)  # u / v0 of the coefficients outside the core
-        order, ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M)
+        ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M)
         f_lo, f_hi = score(lo), score(hi)
         if f_lo > 0 and f_hi < 0:
             v = optimize.brentq(score, lo, hi, xtol=1e-15, rtol=1e-13)
@@ -404,7 +403,7 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
         if f_lo <= 0:  # the largest root may lie anywhere below: scan all coefficients
             idx = np.arange(M)
             ub = np.square(wn) * (scale / v0)
-            order, ub_sorted, score = _sorted_score(ub, np.zeros(6), coef, rho.outside, c2,
+            ub_sorted, score = _sorted_score(ub, np.zeros(6), coef, rho.outside, c2,
                                                     delta, M)
             v = _scan_largest_root(score, float(ub_sorted[-1]), float(ub_sorted[ub_sorted > 0][0]),
                                    delta)
@@ -414,8 +413,12 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
         raise EstimationError("the robust scale equation has no root in a wide bracket")
     u_sorted = ub_sorted / v  # in units of the estimate
     n_rejected = int(u_sorted.size - np.searchsorted(u_sorted, c2, side="right"))
-    top = order[::-1][:n_worst]
-    top = top[u_sorted[::-1][:n_worst] > 0.5 * c2]
+    if ub.size > n_worst:
+        top = np.argpartition(ub, ub.size - n_worst)[-n_worst:]
+    else:
+        top = np.arange(ub.size)
+    top = top[np.argsort(-ub[top], kind="stable")]
+    top = top[ub[top] / v > 0.5 * c2]
     return MScale(v * v0, n_rejected, idx[top].astype(np.int64),
                   np.sqrt(ub[top] / v))
 
