@@ -66,19 +66,19 @@ def _mc(spec: str, freq: float, reps: int, n: int, **contamination) -> dict[str,
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [
-    (GMWN, {"share": 0.002}),                      # 0.2 % isolated spikes
-    (WNRW, {"share": 0.002, "bursts": 4}),         # 0.2 % spikes and four 32-sample bursts
+    (GMWN, 2**13, {"share": 0.002}),               # 0.2 % isolated spikes
+    (WNRW, 2**14, {"share": 0.002, "bursts": 4}),  # 0.2 % spikes and four 32-sample bursts
 ])
 def test_robust_gmwm_recovery_monte_carlo(case):
-    """Small Monte Carlo (5 records of 2^14): the tolerance is the classical estimator's own
+    """Small Monte Carlo (5 records): the tolerance is the classical estimator's own
     RMSE on the clean records (its sampling error). The robust fit on the contaminated
     records stays within twice it (the efficiency loss, 1/sqrt(0.6) = 1.3, and MC noise)
     plus 10 % of the value (the M-scale's bias at the middle levels, where a spike touches
     2^j eps of the coefficients by a few sd: docs/robust.md); the classical fit on the same
     records misses the WN by far."""
-    (spec, freq), contamination = case
+    (spec, freq), n, contamination = case
     truth = stochmod.model_from_spec(spec, freq).vector()
-    mc = _mc(spec, freq, reps=5, n=2**14, **contamination)
+    mc = _mc(spec, freq, reps=5, n=n, **contamination)
     rmse = {k: np.sqrt(np.mean((v - truth) ** 2, axis=0)) for k, v in mc.items()}
     assert np.all(rmse["robust"] <= 2.0 * rmse["clean"] + 0.1 * truth), rmse
     # the WN variance is what isolated spikes inflate: the classical misses it by far
