@@ -383,13 +383,12 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
                 "most wavelet coefficients are exactly zero (constant stretches): "
                 "no robust scale can be estimated")
         v0 = float(np.median(nz)) / _MEDIAN_CHI2_1
-    # u^5 in the unit of w stays in the float range for |w| in (1e-30, 1e30); else scale first
-    scale = 1.0 if 1e-60 < v0 < 1e60 else v0
+    # u^5 = w^10 stays far from overflow and subnormals for v0 in (1e-40, 1e40); else scale
+    scale = 1.0 if 1e-40 < v0 < 1e40 else v0
     wn = w if scale == 1.0 else w / math.sqrt(scale)
     c2 = rho.c * rho.c
     coef = np.zeros(6)
     coef[: len(rho.coef)] = rho.coef
-    powers = np.arange(6.0)
     delta = rho.consistency
     lo, hi = 0.5, 2.0  # bracket of v / v0
     for _ in range(60):
@@ -403,10 +402,9 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
         if f_lo <= 0:  # the largest root may lie anywhere below: scan all coefficients
             idx = np.arange(M)
             ub = np.square(wn) * (scale / v0)
-            ub_sorted, score = _sorted_score(ub, np.zeros(6), coef, rho.outside, c2,
-                                                    delta, M)
-            v = _scan_largest_root(score, float(ub_sorted[-1]), float(ub_sorted[ub_sorted > 0][0]),
-                                   delta)
+            ub_sorted, score = _sorted_score(ub, np.zeros(6), coef, rho.outside, c2, delta, M)
+            smallest = float(ub_sorted[ub_sorted > 0][0])
+            v = _scan_largest_root(score, float(ub_sorted[-1]), smallest, delta)
             break
         lo, hi = hi, 4.0 * hi  # F(hi) >= 0: the root is above
     else:  # pragma: no cover - F -> -delta as v -> inf, so the upward search ends
