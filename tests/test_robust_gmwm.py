@@ -160,5 +160,9 @@ def test_cli_calibrate_and_wv_robust(tmp_path, capsys):
                      "--efficiency", "0.7"]) == 0
     assert "robust WV: biweight, efficiency 0.7" in capsys.readouterr().out
     assert cli_main(["fit", str(path), "--freq", str(freq), "--model", "GM+WN", "--robust",
+                     "--json"]) == 0
+    (fit,) = json.loads(capsys.readouterr().out)["columns"].values()
+    assert fit["robust"]["contamination"]["share"][0] > 0.003
+    assert cli_main(["fit", str(path), "--freq", str(freq), "--model", "GM+WN", "--robust",
                      "--efficiency", "2"]) == 2
     assert "efficiency" in capsys.readouterr().err

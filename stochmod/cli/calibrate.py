@@ -80,16 +80,6 @@ def _safe(fn: Any) -> Any:
         return None
 
 
-def _robust_dict(sel: SelectionResult) -> dict[str, Any] | None:
-    """The robust estimator's settings and contamination diagnostic (None if classical)."""
-    emp = sel.empirical
-    if not emp.robust:
-        return None
-    full = emp.to_dict()
-    return {key: full[key] for key in ("rho", "efficiency", "tuning", "variance_ratio",
-                                       "contamination")}
-
-
 def calibration_report(results: list[SelectionResult], rec: Recording, freq: float, dt: float,
                        scale: float = 1.0) -> dict[str, Any]:
     """The content of ``calibration.json`` (JSON-safe after ``to_jsonable``)."""
@@ -110,7 +100,7 @@ def calibration_report(results: list[SelectionResult], rec: Recording, freq: flo
             "weighting": sel.weighting,
             "ranking": [attrs.asdict(r) for r in sel.ranking],
             "augmentation": _block_dict(best.model.augment(dt)),
-            "robust": _robust_dict(sel),
+            "robust": sel.empirical.robust_info(),
         }
     imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
     return {

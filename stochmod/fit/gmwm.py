@@ -397,6 +397,7 @@ class GMWMResult:
             "parameters": [attrs.asdict(e) for e in self.parameters()],
             "physical": [attrs.asdict(e) for e in self.physical()],
             "jtest": None if jt is None else attrs.asdict(jt),
+            "robust": self.empirical.robust_info(),
         }
 
 

@@ -482,7 +482,9 @@ class SelectionResult:
                  "n/a" if r.jtest_pvalue is None else r.jtest_pvalue,
                  "yes" if r.identified else "no"]
                 for i, r in enumerate(self.ranking)]
-        title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting, "
+        robust = (f", robust WV: {self.empirical.rho}, efficiency {self.empirical.efficiency:g}"
+                  if self.empirical.robust else "")
+        title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting{robust}, "
                  f"{len(self.ranking)} candidates, N = {self.empirical.n}, "
                  f"freq = {self.empirical.freq:g} Hz): selected {self.best.model.name}")
         table = format_table(["rank", "model", "params", "objective", "optimism", self.criterion,

@@ -123,6 +123,15 @@ class WaveletVariance:
             return table
         return table + "\n\n" + self.contamination.summary()
 
+    def robust_info(self) -> dict[str, Any] | None:
+        """JSON-safe robust settings (rho, efficiency, tuning, variance_ratio) and the
+        contamination diagnostic; None for the classical estimator."""
+        if not self.robust:
+            return None
+        full = self.to_dict()
+        return {key: full[key] for key in ("rho", "efficiency", "tuning", "variance_ratio",
+                                           "contamination")}
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict of every field (arrays as lists of Python numbers)."""
         return {
