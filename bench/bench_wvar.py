@@ -9,22 +9,12 @@ peak extra memory of ``wvar`` (tracemalloc) relative to the input array, and the
 from __future__ import annotations
 
 import sys
-import tracemalloc
 
 import allantools
 import numpy as np
 
 from stochmod.signal.wavelet_variance import wvar
-from _timing import best_of
-
-
-
-def peak_ratio(fn, nbytes: int) -> float:
-    tracemalloc.start()
-    fn()
-    _, peak = tracemalloc.get_traced_memory()
-    tracemalloc.stop()
-    return peak / nbytes
+from _timing import best_of, peak_ratio
 
 
 def main(n: int = 2_000_000) -> None:

@@ -112,6 +112,7 @@ def calibration_report(results: list[SelectionResult], rec: Recording, freq: flo
             "weighting": sel.weighting,
             "ranking": [attrs.asdict(r) for r in sel.ranking],
             "augmentation": _block_dict(best.model.augment(dt)),
+            "robust": sel.empirical.robust_info(),
         }
     imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
     return {
@@ -247,5 +248,8 @@ def run(args: argparse.Namespace) -> int:
                          s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
                         for s in results]))
     written = [str(path)] + [str(f) for f in figures]
+    for sel in results:
+        if sel.empirical.contamination is not None:
+            print(f"\n{sel.column}: {sel.empirical.contamination.summary()}")
     print(f"\nwrote {', '.join(written)}")
     return 0

@@ -30,6 +30,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--levels", type=int, default=None, metavar="J",
                    help="number of wavelet levels (default: all the signal allows)")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start search (default 0)")
+    p.add_argument("--robust", action="store_true",
+                   help="fit the robust wavelet variance (biweight M-estimate; docs/robust.md)")
+    p.add_argument("--efficiency", type=float, default=0.6, metavar="EFF",
+                   help="Gaussian efficiency in (0, 1] of the robust estimator (default 0.6)")
     p.set_defaults(func=run)
 
 
@@ -37,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     """Fit the model to every selected column and print the reports."""
     rec, freq = load_input(args)
     fits = {name: gmwm(rec.data[:, k], args.model, freq, weighting=args.weighting,
-                       levels=args.levels, rng=args.seed)
+                       levels=args.levels, rng=args.seed, robust=args.robust,
+                       efficiency=args.efficiency)
             for k, name in enumerate(rec.columns)}
     if args.json:
         print_json({"columns": {n: f.to_dict() for n, f in fits.items()}, "freq": freq})

@@ -38,6 +38,13 @@ def add_selection_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--levels", type=int, default=None, metavar="J",
                    help="number of wavelet levels (default: all the signal allows)")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start searches (default 0)")
+    p.add_argument("--robust", action="store_true",
+                   help="fit the robust wavelet variance (biweight M-estimate): outliers such as "
+                        "knocks and logger glitches no longer drive the model; the report shows "
+                        "where the record was disturbed")
+    p.add_argument("--efficiency", type=float, default=0.6, metavar="EFF",
+                   help="Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; "
+                        "lower is more robust; with --robust)")
 
 
 def selection_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -51,6 +58,8 @@ def selection_options(args: argparse.Namespace) -> dict[str, Any]:
         "weighting": args.weighting,
         "levels": args.levels,
         "rng": args.seed,
+        "robust": args.robust,
+        "efficiency": args.efficiency,
     }
 
 

@@ -30,6 +30,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="interval method: chi2 (default, equivalent degrees of freedom) or normal")
     p.add_argument("--alpha", type=float, default=0.05,
                    help="significance level of the intervals (default 0.05)")
+    p.add_argument("--robust", action="store_true",
+                   help="robust wavelet variance (biweight M-estimate) with the contamination "
+                        "diagnostic: share of coefficients rejected per level, worst times")
+    p.add_argument("--efficiency", type=float, default=0.6, metavar="EFF",
+                   help="Gaussian efficiency in (0, 1] of the robust estimator (default 0.6)")
     p.set_defaults(func=run)
 
 
@@ -38,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     rec, freq = load_input(args)
     results = {
         name: wvar(rec.data[:, k], freq, wavelet=args.wavelet, levels=args.levels,
-                   ci=args.ci, alpha=args.alpha)
+                   ci=args.ci, alpha=args.alpha,
+                   **({"robust": True, "efficiency": args.efficiency} if args.robust else {}))
         for k, name in enumerate(rec.columns)
     }
     if args.json:

@@ -52,6 +52,8 @@ def gmwm(
     binding: str = "auto",
     R: int = 10,
     max_sim: int = 2**20,
+    robust: bool = False,
+    efficiency: float = 0.6,
 ) -> GMWMResult:
     """Fit a composite model by the GMWM (eq. 20).
 
@@ -102,6 +104,16 @@ def gmwm(
         Length of the simulated series in multiples of N (indirect inference only).
     max_sim : int
         Cap on the simulated length, samples (never below N).
+    robust : bool
+        Match the robust wavelet variance (:mod:`stochmod.signal.robust_wv`, Tukey biweight
+        M-estimate of each level's coefficient variance) instead of the classical one: a few
+        outliers in the record no longer drive the fit. Its variances (inflated by
+        ``kappa_j``) enter the diagonal weighting, its covariance (eq. 17 on clipped
+        coefficients, scaled by ``kappa``) the optimal weighting and the inference, the
+        robust WV of the simulations the bootstrap. Implied when `data` is a robust
+        WaveletVariance.
+    efficiency : float
+        Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
 
     Returns
     -------
@@ -117,9 +129,15 @@ def gmwm(
     if is_replicates(data):  # replicates: one model from their pooled wavelet variance
         if freq is None:
             raise InputError("freq (Hz) is required when data is a list of signals")
+        if robust:
+            raise InputError("robust=True is not available for replicates (a list of signals): "
+                             "the pooled wavelet variance is the classical one")
         pooled = pooled_wv(data, check_freq(freq), levels, wavelet)
         data = pooled.wv
     if isinstance(data, WaveletVariance):
+        if robust and not data.robust:
+            raise InputError("robust=True needs the signal or a robust WaveletVariance "
+                             "(wvar(x, freq, robust=True)); this one is classical")
         emp = data
         freq = emp.freq if freq is None else check_freq(freq)
         if levels is not None:
@@ -133,7 +151,8 @@ def gmwm(
         signal = as_signal(data, name="data", min_length=8)
         if np.ptp(signal) == 0:
             raise InputError("data is constant: it has no noise to model")
-        emp = wvar(signal, freq, wavelet=wavelet, levels=levels)
+        emp = wvar(signal, freq, wavelet=wavelet, levels=levels,
+                   **({"robust": True, "efficiency": efficiency} if robust else {}))
     J = emp.wv.size if levels is None else levels
     nu_hat = np.asarray(emp.wv[:J], float)
     if np.any(nu_hat <= 0):

@@ -24,7 +24,13 @@ from scipy import stats
 
 from stochmod.errors import DomainError, EstimationError
 from stochmod.fit.engine import SearchResult, canonical, sandwich
-from stochmod.fit.weighting import bootstrap_covariance, chi2_variance, data_covariance, model_covariance
+from stochmod.fit.weighting import (
+    bootstrap_covariance,
+    chi2_variance,
+    data_covariance,
+    estimator_options,
+    model_covariance,
+)
 from stochmod.model import Model
 from stochmod.process import Process
 from stochmod.reporting import format_table
@@ -204,7 +210,8 @@ class GMWMResult:
             V = data_covariance(self.signal, self.empirical, self.levels)
         else:
             V = bootstrap_covariance(self.model, self.empirical.n, self.levels, reps=100,
-                                     rng=self.rng_seed, wavelet=self.empirical.wavelet)
+                                     rng=self.rng_seed, wavelet=self.empirical.wavelet,
+                                     **estimator_options(self.empirical))
         extra = self.binding_covariance
         return V if extra is None else V + extra
 
@@ -217,7 +224,8 @@ class GMWMResult:
             return self.null_covariance
         try:
             return model_covariance(self.model, self.empirical.n_coef[: self.levels],
-                                    self.empirical.wavelet)
+                                    self.empirical.wavelet,
+                                    variance_ratio=self.empirical.variance_ratio[: self.levels])
         except (NotImplementedError, EstimationError):
             return None
 
@@ -370,8 +378,10 @@ class GMWMResult:
     def summary(self) -> str:
         """Readable report: estimates with intervals (canonical and physical), objective, J-test."""
         pct = f"{100 * (1 - self.alpha):g}%"
-        head = (f"GMWM fit of {self.model.name} ({self.weighting} weighting, J = {self.levels}, "
-                f"N = {self.empirical.n}, freq = {self.model.freq:g} Hz)")
+        emp = self.empirical
+        robust = (f", robust WV: {emp.rho}, efficiency {emp.efficiency:g}" if emp.robust else "")
+        head = (f"GMWM fit of {self.model.name} ({self.weighting} weighting{robust}, "
+                f"J = {self.levels}, N = {emp.n}, freq = {self.model.freq:g} Hz)")
         rows = [[e.name, e.value, e.std_error, e.low, e.high, e.unit] for e in self.parameters()]
         table = format_table(["parameter", "estimate", "std.err", f"{pct} low", f"{pct} high", "unit"],
                              rows, title=head)
@@ -383,6 +393,8 @@ class GMWMResult:
             lines.append(f"J-test (eq. 27): statistic {jt.statistic:.4g}, df {jt.df}, p-value {jt.pvalue:.3g}")
         lines.append(f"converged: {self.converged} ({self.n_starts} local searches, "
                      f"{self.n_evaluations} evaluations): {self.message}")
+        if emp.contamination is not None:
+            lines.extend(["", emp.contamination.summary()])
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -399,6 +411,7 @@ class GMWMResult:
             "parameters": [attrs.asdict(e) for e in self.parameters()],
             "physical": [attrs.asdict(e) for e in self.physical()],
             "jtest": None if jt is None else attrs.asdict(jt),
+            "robust": self.empirical.robust_info(),
         }
 
 

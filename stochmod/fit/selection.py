@@ -45,6 +45,7 @@ from stochmod.lattice import default_families, default_max_counts
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
 from stochmod.reporting import format_table
+from stochmod.signal.robust_wv import check_efficiency
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
@@ -224,12 +225,13 @@ def _column(emp: WaveletVariance, x: np.ndarray | None, scheme: Any, seed: int,
     return _Column(emp, omega, covariance if covariance is not None else made.covariance)
 
 
-def _prepare(item: tuple[np.ndarray, float, int | None, Any, int]) -> _Column:
+def _prepare(item: tuple[np.ndarray, float, int | None, Any, int, dict]) -> _Column:
     """Empirical WV and weighting matrix of one signal (with V when the weighting inverts it,
     e.g. eq. 17 for the optimal weighting). The weighting object travels with the item, so a
-    weighting registered at run time works in worker processes too."""
-    x, freq, levels, scheme, seed = item
-    return _column(wvar(x, freq, levels=levels), x, scheme, seed)
+    weighting registered at run time works in worker processes too; the last item holds
+    wvar's estimator options (``robust``, ``efficiency``)."""
+    x, freq, levels, scheme, seed, options = item
+    return _column(wvar(x, freq, levels=levels, **options), x, scheme, seed)
 
 
 def _covariance(item: tuple[np.ndarray, WaveletVariance, int]) -> np.ndarray:
@@ -473,7 +475,9 @@ class SelectionResult:
                  "n/a" if r.jtest_pvalue is None else r.jtest_pvalue,
                  "yes" if r.identified else "no"]
                 for i, r in enumerate(self.ranking)]
-        title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting, "
+        robust = (f", robust WV: {self.empirical.rho}, efficiency {self.empirical.efficiency:g}"
+                  if self.empirical.robust else "")
+        title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting{robust}, "
                  f"{len(self.ranking)} candidates, N = {self.empirical.n}, "
                  f"freq = {self.empirical.freq:g} Hz): selected {self.best.model.name}")
         table = format_table(["rank", "model", "params", "objective", "optimism", self.criterion,
@@ -588,6 +592,8 @@ def select(
     levels: int | None = None,
     *,
     names: Sequence[str] | None = None,
+    robust: bool = False,
+    efficiency: float = 0.6,
 ) -> SelectionResult | list[SelectionResult]:
     """Select a composite model by fitting every candidate with the GMWM and ranking them.
 
@@ -629,6 +635,12 @@ def select(
         Number of wavelet levels J (default: all the signal allows).
     names : sequence of str, optional
         Column names for the results (default: the Recording's, else "0", "1", ...).
+    robust : bool
+        Fit every candidate to the robust wavelet variance (see :func:`stochmod.gmwm`): a few
+        outliers no longer call for spurious components; its variances and covariance give
+        Omega and V. The diagnostic is ``result.empirical.contamination``.
+    efficiency : float
+        Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
 
     Returns
     -------
@@ -647,11 +659,15 @@ def select(
     seed = _base_seed(rng)
     if levels is not None:
         levels = check_positive_int(levels, name="levels", minimum=1)
+    options = {"robust": True, "efficiency": check_efficiency(efficiency)} if robust else {}
     prepared: list[_Column] | None = None
     if is_replicates(x):  # replicates of one sensor model: one selection on their pooled WV
         if freq is None:
             raise InputError("freq (Hz) is required when x is a list of signals")
         freq = check_freq(freq)
+        if robust:
+            raise InputError("robust=True is not available for replicates (a list of signals): "
+                             "the pooled wavelet variance is the classical one")
         pooled = pooled_wv(x, freq, levels)
         cols = ["pooled"] if names is None else [str(n) for n in names]
         if len(cols) != 1:
@@ -674,7 +690,8 @@ def select(
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
         shared = prepared or [f.result() for f in [
-            pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed)) for k in range(len(cols))]]
+            pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed, options))
+            for k in range(len(cols))]]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():
             free = int(node["model"].free_mask().sum())

@@ -25,9 +25,11 @@ __all__ = [
     "COVARIANCE_MIN_EDF",
     "equivalent_dof",
     "chi2_variance",
+    "level_variances",
     "decoupled_covariance",
     "data_covariance",
     "bootstrap_covariance",
+    "estimator_options",
     "model_covariance",
     "weighting_from_covariance",
     "check_weighting_matrix",
@@ -128,22 +130,48 @@ def decoupled_covariance(V: np.ndarray, wv: np.ndarray, n_coef: np.ndarray, leve
     return out
 
 
+def level_variances(emp: WaveletVariance, levels: int) -> np.ndarray:
+    """Variances of the empirical WV `emp` at levels 1..`levels` for the diagonal weighting,
+    unit^4: :func:`chi2_variance` times the estimator's variance ratio ``kappa_j`` (1 for the
+    classical estimator; for the robust one, its variance over the classical one's,
+    :mod:`stochmod.signal.robust_wv`)."""
+    return (chi2_variance(emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+            * emp.variance_ratio[:levels])
+
+
 def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndarray:
     """Covariance of the empirical WV `emp` of the signal `x` at levels 1..`levels`: the
     asymptotic estimator of eq. 17 (:func:`stochmod.signal.wv_covariance.wv_covariance`),
-    with the deep levels decoupled (:func:`decoupled_covariance`), unit^4."""
-    V = wv_covariance(x, levels, wavelet=emp.wavelet)
-    return decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+    with the deep levels decoupled (:func:`decoupled_covariance`), unit^4.
+
+    For a robust `emp` (``emp.robust``), eq. 17 runs on the coefficients clipped at
+    ``c sqrt(nu_j)`` (outliers do not dominate it) and is scaled by the robust estimator's
+    variance ratios, ``V_jl sqrt(kappa_j kappa_l)`` (:mod:`stochmod.signal.robust_wv`)."""
+    clip = emp.tuning * np.sqrt(emp.wv[:levels]) if emp.robust and emp.efficiency < 1 else None
+    V = wv_covariance(x, levels, wavelet=emp.wavelet, clip=clip)
+    V = decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
+    ratio = np.sqrt(emp.variance_ratio[:levels])
+    return V * np.outer(ratio, ratio)
+
+
+def estimator_options(emp: WaveletVariance) -> dict[str, Any]:
+    """The :func:`~stochmod.signal.wavelet_variance.wvar` options that reproduce `emp`'s
+    estimator (empty for the classical one; ``robust``, ``efficiency``, ``rho`` for a robust one)."""
+    if not emp.robust:
+        return {}
+    return {"robust": True, "efficiency": emp.efficiency, "rho": emp.rho}
 
 
 def bootstrap_covariance(model: Model, n: int, levels: int, *, reps: int = 100,
-                         rng: np.random.Generator | int = 0, wavelet: str = "haar") -> np.ndarray:
+                         rng: np.random.Generator | int = 0, wavelet: str = "haar",
+                         **estimator: Any) -> np.ndarray:
     """Parametric bootstrap covariance of the empirical WV (eq. 35): `reps` simulations of
-    `n` samples from `model` (all values given, bound to its frequency), seeded; J x J, unit^4."""
+    `n` samples from `model` (all values given, bound to its frequency), seeded; J x J, unit^4.
+    `estimator` holds wvar's estimator options (:func:`estimator_options`: the robust WV's)."""
     reps = check_positive_int(reps, name="reps", minimum=2)
     gen = as_generator(rng)
     sims = np.array([
-        wvar(model.simulate(n, g), model.freq, wavelet=wavelet, levels=levels).wv
+        wvar(model.simulate(n, g), model.freq, wavelet=wavelet, levels=levels, **estimator).wv
         for g in gen.spawn(reps)
     ])
     return np.cov(sims, rowvar=False)
@@ -179,7 +207,8 @@ def check_weighting_matrix(omega: Any, levels: int, *, source: str = "the weight
     return omega
 
 
-def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") -> np.ndarray:
+def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar", *,
+                     variance_ratio: np.ndarray | None = None) -> np.ndarray:
     """Large-sample covariance of the empirical WV under `model` (J x J, unit^4).
 
     The Gaussian components' summed PSD gives :func:`stochmod.theory.wv_covariance_from_psd`;
@@ -196,6 +225,8 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") ->
         Number of coefficients M_j of the empirical WV at levels 1..J.
     wavelet : str
         Wavelet filter of the empirical WV.
+    variance_ratio : ndarray (J,), optional
+        ``kappa_j`` of a robust estimator: the result is scaled to ``V_jl sqrt(kappa_j kappa_l)``.
     """
     if model.freq is None:
         raise SpecError("the model is not bound to a sampling frequency: use model.bind(freq)")
@@ -212,4 +243,7 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar") ->
         total += wv_covariance_from_psd(
             lambda f: np.sum([p.psd(f, freq) for p in spectral], axis=0), n_coef, freq,
             wavelet=wavelet, breakpoints=breakpoints)
+    if variance_ratio is not None:
+        ratio = np.sqrt(np.asarray(variance_ratio, dtype=np.float64))
+        total = total * np.outer(ratio, ratio)
     return total

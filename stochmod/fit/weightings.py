@@ -30,8 +30,9 @@ from stochmod import registry
 from stochmod.errors import InputError
 from stochmod.fit.weighting import (
     bootstrap_covariance,
-    chi2_variance,
     data_covariance,
+    estimator_options,
+    level_variances,
     weighting_from_covariance,
 )
 from stochmod.hookspecs import hookimpl
@@ -136,15 +137,16 @@ class Weighting(abc.ABC):
 @attrs.frozen
 class DiagonalWeighting(Weighting):
     """``Omega = diag(1 / var(v_j))`` with the chi-square variances ``2 v_j^2 / eta_j``
-    (:func:`~stochmod.fit.weighting.chi2_variance`): fast, from the WV alone (the default)."""
+    (:func:`~stochmod.fit.weighting.chi2_variance`, times the robust estimator's variance
+    ratios for a robust WV: :func:`~stochmod.fit.weighting.level_variances`): fast, from the WV
+    alone (the default)."""
 
     name: ClassVar[str] = "diagonal"
     description: ClassVar[str] = "inverse chi-square variances of the empirical WV (default)"
 
     def matrix(self, data: WeightingInput) -> WeightingMatrix:
         """The diagonal matrix."""
-        emp, J = data.empirical, data.levels
-        return WeightingMatrix(np.diag(1.0 / chi2_variance(data.wv, emp.n_coef[:J], emp.levels[:J])))
+        return WeightingMatrix(np.diag(1.0 / level_variances(data.empirical, data.levels)))
 
 
 @attrs.frozen
@@ -204,7 +206,7 @@ class BootstrapWeighting(InverseCovarianceWeighting):
         """The bootstrap covariance at the pilot fit."""
         pilot, emp = data.require("pilot", self.name), data.empirical
         return bootstrap_covariance(pilot.model, emp.n, data.levels, reps=data.reps,
-                                    rng=data.seed, wavelet=emp.wavelet)
+                                    rng=data.seed, wavelet=emp.wavelet, **estimator_options(emp))
 
 
 #: The first-party weightings (registered by :func:`stochmod_weightings`).

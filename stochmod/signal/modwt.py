@@ -291,12 +291,15 @@ def _sumsq(w: np.ndarray) -> float:
 
 
 def _pyramid(
-    x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None
+    x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None,
+    sumsq: bool = True,
 ) -> Iterator[tuple[int, float, int]]:
     """Run the interior MODWT pyramid; yield ``(j, sum of W_j^2, M_j)`` for j = 1..levels.
 
     When `w_out` (length >= M_1) is given, ``w_out[:M_j]`` holds the level-j coefficients at
-    the time of the yield (overwritten at the next level). Extra memory: one copy of `x`.
+    the time of the yield (overwritten at the next level). With ``sumsq=False`` the sums of
+    squares are not accumulated (0.0 is yielded): callers that only need the coefficients.
+    Extra memory: one copy of `x`.
     """
     h, g = _filters(wavelet)
     width1 = h.size
@@ -318,7 +321,8 @@ def _pyramid(
             if haar:
                 # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
                 w = np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
-                total += _sumsq(w)
+                if sumsq:
+                    total += _sumsq(w)
                 if w_out is not None:
                     np.multiply(w, sign * 0.5**j, out=w_out[s:e])
                 if update:
@@ -326,7 +330,8 @@ def _pyramid(
             else:
                 view = as_strided(v[s:], shape=(width1, e - s), strides=(step * item, item))
                 out = np.einsum("ij,jk->ik", rows, view)  # no BLAS threads (see _DOT)
-                total += _sumsq(out[0])
+                if sumsq:
+                    total += _sumsq(out[0])
                 if w_out is not None:
                     w_out[s:e] = out[0]
                 if update:

@@ -8,7 +8,7 @@ coefficients enter the estimate (no boundary rule, unbiased).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import attrs
 import numpy as np
@@ -28,6 +28,9 @@ from stochmod.signal.modwt import (
     modwt_coefficients,
     modwt_filters,
 )
+
+if TYPE_CHECKING:
+    from stochmod.signal.robust_wv import Contamination
 
 __all__ = ["WaveletVariance", "wvar", "modwt_coefficients", "CI_METHODS", "NORMAL_CI_FLOOR"]
 
@@ -63,6 +66,19 @@ class WaveletVariance:
         ``"chi2"`` or ``"normal"``.
     alpha : float
         Significance level of the intervals.
+    robust : bool
+        Whether ``wv`` is the robust M-estimate (:mod:`stochmod.signal.robust_wv`).
+    efficiency : float
+        Gaussian efficiency the robust estimator was tuned to (1 for the classical one).
+    rho : str or None
+        Chi function of the robust estimator ("biweight", "huber").
+    tuning : float
+        Its tuning constant c (inf for the classical estimator).
+    variance_ratio : ndarray, shape (J,)
+        ``kappa_j``: variance of this estimator over that of the classical one at each level,
+        as used by its intervals and by the GMWM weighting (ones for the classical).
+    contamination : Contamination or None
+        The robust estimator's outlier diagnostic.
     """
 
     levels: np.ndarray = array_field()
@@ -76,11 +92,22 @@ class WaveletVariance:
     n: int
     ci_method: str
     alpha: float
+    robust: bool = False
+    efficiency: float = 1.0
+    rho: str | None = None
+    tuning: float = float("inf")
+    variance_ratio: np.ndarray = array_field(
+        default=attrs.Factory(lambda self: np.ones(self.wv.size), takes_self=True))
+    contamination: Contamination | None = None
 
     def summary(self) -> str:
         """Table of level, tau [s], wavelet variance, interval bounds and M_j."""
+        kind = "Wavelet variance"
+        if self.robust:
+            kind = (f"Robust wavelet variance ({self.rho}, efficiency "
+                    f"{format_number(self.efficiency)}, c = {format_number(self.tuning, 4)})")
         title = (
-            f"Wavelet variance ({self.wavelet}, N = {self.n}, "
+            f"{kind} ({self.wavelet}, N = {self.n}, "
             f"freq = {format_number(self.freq)} Hz, "
             f"{format_number(100 * (1 - self.alpha))}% CI: {self.ci_method})"
         )
@@ -91,7 +118,19 @@ class WaveletVariance:
             )
         ]
         headers = ["level", "tau [s]", "WV", "CI low", "CI high", "M_j"]
-        return format_table(headers, rows, title=title)
+        table = format_table(headers, rows, title=title)
+        if self.contamination is None:
+            return table
+        return table + "\n\n" + self.contamination.summary()
+
+    def robust_info(self) -> dict[str, Any] | None:
+        """JSON-safe robust settings (rho, efficiency, tuning, variance_ratio) and the
+        contamination diagnostic; None for the classical estimator."""
+        if not self.robust:
+            return None
+        full = self.to_dict()
+        return {key: full[key] for key in ("rho", "efficiency", "tuning", "variance_ratio",
+                                           "contamination")}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict of every field (arrays as lists of Python numbers)."""
@@ -107,6 +146,12 @@ class WaveletVariance:
             "n": int(self.n),
             "ci_method": self.ci_method,
             "alpha": float(self.alpha),
+            "robust": bool(self.robust),
+            "efficiency": float(self.efficiency),
+            "rho": self.rho,
+            "tuning": None if np.isinf(self.tuning) else float(self.tuning),  # classical: None
+            "variance_ratio": [float(r) for r in self.variance_ratio],
+            "contamination": None if self.contamination is None else self.contamination.to_dict(),
         }
 
 
@@ -144,6 +189,10 @@ def wvar(
     levels: int | None = None,
     ci: str = "chi2",
     alpha: float = 0.05,
+    *,
+    robust: bool = False,
+    efficiency: float = 0.6,
+    rho: str = "biweight",
 ) -> WaveletVariance:
     """Empirical MODWT wavelet variance at levels 1..J with confidence intervals.
 
@@ -170,6 +219,14 @@ def wvar(
         ``NORMAL_CI_FLOOR * v`` (1e-3 v) when ``v - z sqrt(S_j / M_j)`` is not larger.
     alpha : float
         Significance level; the intervals have nominal coverage ``1 - alpha``.
+    robust : bool
+        If True, the robust M-estimate of each level's coefficient variance
+        (:func:`stochmod.signal.robust_wv.robust_wvar`: biweight or Huber, consistent at the
+        Gaussian, with its own intervals and the ``contamination`` diagnostic).
+    efficiency : float
+        Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
+    rho : {"biweight", "huber"}
+        Chi function of the robust estimator (robust only).
 
     Returns
     -------
@@ -187,6 +244,11 @@ def wvar(
     Extra memory: one copy of `x` for "chi2" (the pyramid runs in place, in chunks); for
     "normal" also the coefficients and their zero-padded FFT (about 5 N more).
     """
+    if robust:
+        from stochmod.signal.robust_wv import robust_wvar  # it builds on this module
+
+        return robust_wvar(x, freq, efficiency, wavelet=wavelet, levels=levels, ci=ci,
+                           alpha=alpha, rho=rho)
     x = as_signal(x, name="x", min_length=2)
     freq = check_freq(freq)
     modwt_filters(wavelet)

@@ -20,7 +20,8 @@ from stochmod.signal.modwt import filter_width, iter_modwt
 __all__ = ["wv_covariance"]
 
 
-def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar") -> np.ndarray:
+def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar", *,
+                  clip: ArrayLike | None = None) -> np.ndarray:
     """Covariance matrix of the empirical wavelet variances at levels 1..J, unit^4.
 
     ``Cov(v_m, v_l) = (1 / M_ml) sum_tau c_ml(tau)^2`` with ``c_ml(tau) = (1/M_ml) sum_k
@@ -35,6 +36,10 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
         Number of levels J (default: all the signal allows).
     wavelet : str
         Orthogonal pywt wavelet (Haar by default).
+    clip : array_like, shape (J,), optional
+        Per-level bounds (unit u): level j's coefficients are clipped to ``+-clip[j-1]``
+        first, so that a few outliers do not dominate the sums (the robust wavelet variance
+        uses ``c sqrt(nu_j)``).
 
     Returns
     -------
@@ -53,7 +58,10 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     # single-precision transforms (relative error ~1e-6, far below the estimator's own
     # sampling error of order 1/sqrt(M_j)) halve the time and memory; sums are in float64
     buf = np.zeros(nfft, dtype=np.float32)
+    bounds = None if clip is None else np.asarray(clip, dtype=np.float64)
     for j, coef in iter_modwt(x, levels, wavelet):
+        if bounds is not None:
+            np.clip(coef, -bounds[j - 1], bounds[j - 1], out=coef)
         start = filter_width(j, wavelet) - 1
         buf[:] = 0.0
         buf[start : start + coef.size] = coef
