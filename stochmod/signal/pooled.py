@@ -29,7 +29,7 @@ from stochmod._validation import as_signal, check_alpha, check_freq
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
 from stochmod.signal.modwt import default_levels
-from stochmod.signal.wavelet_variance import WaveletVariance, _chi2_interval, wvar
+from stochmod.signal.wavelet_variance import WaveletVariance, chi2_interval, wvar
 from stochmod.signal.wv_covariance import wv_covariance
 
 __all__ = ["EqualityTest", "PooledWaveletVariance", "pool_wv", "pooled_wvar", "wv_equality_test"]
@@ -136,7 +136,7 @@ def pool_wv(wvs: Sequence[WaveletVariance], covariances: Sequence[np.ndarray], *
     nu = np.sum(weights * np.array([r.wv for r in wvs]), axis=0)
     cov = sum(np.outer(w, w) * c for w, c in zip(weights, covariances))
     n_coef = counts.sum(axis=0).astype(np.int64)
-    low, high = _chi2_interval(nu, n_coef, first.levels, first.alpha)
+    low, high = chi2_interval(nu, n_coef, first.levels, first.alpha)
     arrays = [first.levels.copy(), first.tau.copy(), nu, low, high, n_coef]
     for a in arrays:
         a.setflags(write=False)

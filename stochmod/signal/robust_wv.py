@@ -75,7 +75,7 @@ from stochmod.signal.modwt import (
     filter_width,
     modwt_filters,
 )
-from stochmod.signal.wavelet_variance import CI_METHODS, NORMAL_CI_FLOOR, WaveletVariance
+from stochmod.signal.wv_classical import CI_METHODS, NORMAL_CI_FLOOR, WaveletVariance, classical_wvar
 
 __all__ = [
     "RHO_FUNCTIONS",
@@ -579,9 +579,7 @@ def robust_wvar(
         raise InputError(f"x has {x.size} samples; the robust wavelet variance needs at least "
                          f"{2 * filter_width(1, wavelet)} (two level-1 {wavelet!r} filters)")
     if efficiency == 1.0:
-        from stochmod.signal.wavelet_variance import wvar
-
-        return attrs.evolve(wvar(x, freq, wavelet=wavelet, levels=levels, ci=ci, alpha=alpha),
+        return attrs.evolve(classical_wvar(x, freq, wavelet=wavelet, levels=levels, ci=ci, alpha=alpha),
                             robust=True, efficiency=1.0, rho=rho)
     n = x.size
     n_levels = (default_levels(n, wavelet) if levels is None
