@@ -217,16 +217,19 @@ class Datasheet:
                 return r
         raise KeyError(f"no datasheet row {quantity!r}" + (f" in {unit}" if unit else ""))
 
+    def summary_table(self) -> tuple[list[str], list[list[Any]]]:
+        """Headers and cells of the summary (``-`` where a value is absent)."""
+        rows = [[r.quantity, "-" if r.model is None else r.model, "" if r.low is None else r.low,
+                 "" if r.high is None else r.high, "-" if r.reading is None else r.reading,
+                 r.unit, "" if r.tau is None else r.tau, r.note] for r in self.rows]
+        return (["quantity", "model", "95% low", "95% high", "Allan reading", "unit", "tau [s]",
+                 "note"], rows)
+
     def summary(self) -> str:
         """Two tables: the summary (model beside Allan reading) and every parameter."""
         head = (f"Datasheet of {self.column} ({self.sensor}, {self.model}, "
                 f"freq = {self.freq:g} Hz, SI unit {self.unit})")
-        rows = [[r.quantity, r.model if r.model is not None else "-",
-                 "" if r.low is None else r.low, "" if r.high is None else r.high,
-                 r.reading if r.reading is not None else "-", r.unit,
-                 "" if r.tau is None else r.tau, r.note] for r in self.rows]
-        summary = format_table(["quantity", "model", "95% low", "95% high", "Allan reading",
-                                "unit", "tau [s]", "note"], rows, title=head, digits=4)
+        summary = format_table(*self.summary_table(), title=head, digits=4)
         prow = []
         for p in self.parameters:
             for unit, (v, lo, hi) in p.values.items():
@@ -270,6 +273,18 @@ def _parameter(est: ParameterEstimate, unit: str) -> DatasheetParameter:
         values[ds] = (conv[0], conv[1], conv[2])
     return DatasheetParameter(est.name, kind, float(est.value), float(est.low), float(est.high),
                               si_unit, values)
+
+
+def _physical(fit: GMWMResult) -> list[ParameterEstimate]:
+    """The fit's physical parameters with intervals, or without (NaN) where the fit is not
+    identified (a component the wavelet variance does not resolve)."""
+    try:
+        return fit.physical()
+    except EstimationError:
+        freq = float(fit.model.freq)
+        return [ParameterEstimate(f"{label}.{name}", pv.value, math.nan, math.nan, math.nan, pv.unit)
+                for label, proc in zip(fit.model.labels, fit.model.processes)
+                for name, pv in proc.physical(freq).items()]
 
 
 def model_allan_minimum(fit: GMWMResult, points_per_octave: int = 16
@@ -385,20 +400,19 @@ def datasheet(fit: GMWMResult, sensor: str, *, column: str = "", x: ArrayLike | 
     Returns
     -------
     Datasheet
+        Intervals are NaN where the fit is not identified.
 
     Raises
     ------
     InputError
         Unknown sensor kind, or both `x` and `reading` given.
-    EstimationError
-        The fit has no intervals (no identified parameter).
     """
     unit = sensor_unit(sensor)
     if x is not None and reading is not None:
         raise InputError("give the data x or an Allan reading, not both")
     if x is not None:
         reading = allan_reading(x, float(fit.model.freq), unit=unit)
-    params = tuple(_parameter(e, unit) for e in fit.physical())
+    params = tuple(_parameter(e, unit) for e in _physical(fit))
     rows = _rows(fit, params, unit, reading)
     return Datasheet(column=column, unit=unit, freq=float(fit.model.freq), model=fit.model.name,
                      parameters=params, rows=tuple(rows), reading=reading)

@@ -55,7 +55,7 @@ import attrs
 import numpy as np
 
 from stochmod.datasheet import SENSORS, sensor_unit, si_unit_of
-from stochmod.errors import InputError
+from stochmod.errors import EstimationError, InputError
 from stochmod.fit.gmwm import GMWMResult
 from stochmod.model import Model
 from stochmod.process import Process
@@ -145,7 +145,7 @@ def random_walk_bound(process: Process, freq: float, horizon: float) -> float:
 def _single_interval(fit: GMWMResult, label: str, name: str) -> tuple[float, float] | None:
     try:
         est = next(e for e in fit.physical() if e.name == f"{label}.{name}")
-    except StopIteration:
+    except (StopIteration, EstimationError):  # not identified: no interval
         return None
     return (est.low, est.high)
 

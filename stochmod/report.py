@@ -121,11 +121,7 @@ def _axis_html(axis: ReportAxis, figures: bool) -> str:
     parts.append(f"<p>Data inside the 95% band of the simulations at "
                  f"{100 * axis.bands.coverage:.0f}% of the levels.</p>")
     parts.append("<h3>Datasheet summary</h3>")
-    rows = [[r.quantity, "-" if r.model is None else r.model, "" if r.low is None else r.low,
-             "" if r.high is None else r.high, "-" if r.reading is None else r.reading, r.unit,
-             "" if r.tau is None else r.tau, r.note] for r in ds.rows]
-    parts.append(_table(["quantity", "model", "95% low", "95% high", "Allan reading", "unit",
-                         "tau [s]", "note"], rows, "datasheet"))
+    parts.append(_table(*ds.summary_table(), "datasheet"))
     prow = [[p.name, p.si, p.si_low, p.si_high, p.si_unit] for p in ds.parameters]
     parts.append(_table(["parameter", "SI", "95% low", "95% high", "SI unit"], prow, "parameters"))
     parts.append(f"<h3>Selection ({html.escape(sel.criterion)}, {html.escape(sel.weighting)} "

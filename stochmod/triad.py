@@ -6,7 +6,9 @@ per-axis selections of a triad (every candidate fitted on every axis, with one s
 set) and
 
 1. picks the structure with the smallest criterion summed over the axes, among the candidates
-   identified on every axis (candidates identified on fewer axes rank after them);
+   identified on a majority of the axes (a structure may hold a component that one axis does
+   not resolve, as one chip's axes differ; candidates identified on fewer axes are chosen only
+   when none is identified on a majority, the most identified first);
 2. checks each axis's fit of that structure for correlated components (those declaring a
    correlation time and a sigma, e.g. a GM) whose correlation time lies below the sampling
    interval (the component is then white noise for the data) or beyond the record (a random
@@ -226,7 +228,9 @@ def triad_select(results: Sequence[SelectionResult], units: Mapping[str, str] | 
             optimism[row.model] += row.optimism
             identified[row.model] += int(row.identified)
             n_params[row.model] = row.n_params
-    order = sorted(names, key=lambda m: (-identified[m], summed[m], m))
+    majority = len(results) // 2 + 1
+    order = sorted(names, key=lambda m: (identified[m] < majority, -min(identified[m], majority),
+                                         summed[m], m))
     best = order[0]
     unit = units[cols[0]]
     freq = float(results[0].fits[best].model.freq)
@@ -237,7 +241,7 @@ def triad_select(results: Sequence[SelectionResult], units: Mapping[str, str] | 
         kinds = _WHITE_KINDS if e.equivalent == "white noise" else _WALK_KINDS
         for alt in _simpler(results[0].fits[best].model, e.component, kinds, candidates, freq, unit):
             tie = max(optimism[best] - optimism[alt], optimism[best] / max(n_params[best], 1))
-            if identified[alt] == identified[best] and summed[alt] - summed[best] <= tie:
+            if identified[alt] >= min(identified[best], majority) and summed[alt] - summed[best] <= tie:
                 replaced, best = best, alt
                 break
         if replaced:

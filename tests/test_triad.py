@@ -58,6 +58,21 @@ def walk_selections():
                                names=["gyro_x", "gyro_y", "gyro_z"], executor=pool)
 
 
+def test_a_majority_of_identified_axes_is_enough(selections):
+    """GM+WN unidentified on one axis of three still wins on the summed criterion; on two of
+    three it does not (WN, identified everywhere, does)."""
+    def unidentified(sel):
+        ranking = tuple(attrs.evolve(r, identified=False) if r.model == "GM+WN" else r
+                        for r in sel.ranking)
+        return attrs.evolve(sel, ranking=ranking)
+
+    one = [unidentified(selections[0]), *selections[1:]]
+    assert triad_select(one).structure == "GM+WN"
+    two = [unidentified(s) for s in selections[:2]] + [selections[2]]
+    choice = triad_select(two)
+    assert choice.identified["GM+WN"] == 1 and choice.identified[choice.structure] >= 2
+
+
 def test_gm_beyond_the_record_is_a_random_walk(walk_selections):
     record = 2**12 / FS
     n_walks = 0
