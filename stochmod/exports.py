@@ -46,6 +46,7 @@ nothing.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -346,8 +347,6 @@ def write_exports(formats: Sequence[str], fits: Mapping[str, GMWMResult], units:
                   out: Path, *, horizon: float | None = None,
                   rostopic: str = "/imu0") -> list[Path]:
     """Write the asked `formats` (keys of :data:`EXPORT_FORMATS`) into `out`; the paths."""
-    import json
-
     unknown = sorted(set(formats) - set(EXPORT_FORMATS))
     if unknown:
         raise InputError(f"unknown export format(s) {unknown}; choose from {sorted(EXPORT_FORMATS)}")
@@ -360,9 +359,7 @@ def write_exports(formats: Sequence[str], fits: Mapping[str, GMWMResult], units:
         elif fmt == "openvins":
             path.write_text(openvins_yaml(axes, rostopic))
         else:
-            from stochmod.cli._common import to_jsonable
-
             content = pyins_parameters(axes) if fmt == "pyins" else stochmod_nav_config(fits, units)
-            path.write_text(json.dumps(to_jsonable(content), indent=1, sort_keys=True))
+            path.write_text(json.dumps(content, indent=1, sort_keys=True, allow_nan=False))
         written.append(path)
     return written
