@@ -117,3 +117,23 @@ def test_bad_triads(selections):
         triad_select(selections, {"gyro_x": "rad/s", "gyro_y": "m/s^2", "gyro_z": "rad/s"})
     with pytest.raises(InputError, match="at least one"):
         triad_select([])
+
+
+def test_calibrate_triad_gives_every_axis_of_a_sensor_the_same_structure(walk_selections, tmp_path,
+                                                                          capsys):
+    import json
+
+    from stochmod.cli import main
+
+    truth = stochmod.model_from_spec("WN(sigma2=1e-4) + RW(sigma2=1e-8)", FS)
+    cols = {f"gyro_{a}": truth.simulate(2**12, rng=60 + i) for i, a in enumerate("xyz")}
+    path = tmp_path / "imu.npz"
+    np.savez(path, freq=FS, **cols)
+    out = tmp_path / "out"
+    assert main(["calibrate", str(path), "--candidates", "WN", "GM+WN", "WN+RW", "--no-plots",
+                 "--out", str(out), "--triad"]) == 0
+    assert "summed wvic" in capsys.readouterr().out
+    report = json.loads((out / "calibration.json").read_text())
+    (triad,) = report["triads"]
+    assert triad["structure"] == triad_select(walk_selections).structure == "WN+RW"
+    assert {report["columns"][c]["name"] for c in cols} == {"WN+RW"}
