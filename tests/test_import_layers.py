@@ -37,9 +37,11 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("signal", ("stochmod.signal",)),
     ("fit", ("stochmod.fit",)),
     # the classical pipelines that end in models, navigation, combiners, readers
-    ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination")),
+    ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination",
+                      "stochmod.datasheet", "stochmod.exports", "stochmod.triad", "stochmod.report")),
     ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
-             "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant")),
+             "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant",
+             "stochmod.fleet")),
 )
 
 #: Lazy imports the issue allows: an operator returning an object of a module that imports

@@ -12,9 +12,11 @@ from typing import Any
 import attrs
 
 from stochmod._validation import check_freq
+from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import add_input_arguments, load_input, print_json, to_jsonable
 from stochmod.cli.select import add_selection_arguments, selection_options
 from stochmod.errors import EstimationError, InputError
+from stochmod.fleet import SerialExecutor, run_fleet
 from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
 from stochmod.fit.selection import SelectionResult, select
 from stochmod.io import Recording
@@ -22,7 +24,7 @@ from stochmod.model import augment_axes
 from stochmod.reporting import format_table
 from stochmod.statespace import StateSpaceBlock
 
-__all__ = ["register", "run", "calibration_report"]
+__all__ = ["register", "run", "calibrate_file", "calibrate_unit", "calibration_report"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -54,11 +56,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--n-sim", type=int, default=20,
                    help="series simulated from each fit for the figures (default 20)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
-    p.add_argument("more_files", metavar="FILE", nargs="*",
-                   help="with --pooled: further replicate recordings of the same sensor model")
+    extras.add_output_arguments(p)
     p.add_argument("--pooled", action="store_true",
                    help="FILE FILE ...: replicates of one sensor model; fit one model per column "
-                        "from their pooled wavelet variance, and test whether they share it")
+                        "from their pooled wavelet variance, and test whether they share it "
+                        "(without it, several FILEs are a fleet: one calibration each)")
     p.set_defaults(func=run)
 
 
@@ -218,11 +220,27 @@ def _run_pooled(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Select, fit, report and write calibration.json (+ figures)."""
+    """Select, fit, report and write calibration.json (+ figures); several FILEs: a fleet, or
+    with ``--pooled`` replicates of one sensor model."""
     if args.pooled:
         return _run_pooled(args)
-    if args.more_files:
-        raise InputError("several FILEs are replicates: add --pooled")
+    if extras.fleet_requested(args):
+        return run_fleet(args, calibrate_unit)
+    calibrate_file(args)
+    return 0
+
+
+def calibrate_unit(args: argparse.Namespace) -> dict[str, Any]:
+    """One unit of a fleet: the quiet single-file calibration with its fits run in the calling
+    worker (the file is the parallel unit); its report dict."""
+    return calibrate_file(args, executor=SerialExecutor(), quiet=True)
+
+
+def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool = False
+                   ) -> dict[str, Any]:
+    """The single-file calibration: writes OUT/calibration.json (and the asked outputs), prints
+    the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
+    `executor` runs the selection's fits (default: its own process pool)."""
     rec, freq = _input(args)
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
@@ -230,26 +248,46 @@ def run(args: argparse.Namespace) -> int:
     if not dt > 0:
         raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
     data = rec.data * args.scale
-    results = select(data, freq, names=list(rec.columns), **selection_options(args))
+    sensor_units = extras.column_units(list(rec.columns), args,
+                                       required=bool(args.triad or args.export or args.report))
+    results = select(data, freq, names=list(rec.columns), executor=executor,
+                     **selection_options(args))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)
+    triads: list[Any] = []
+    if args.triad:
+        results, triads = extras.apply_triad(results, sensor_units)
+    sheets = {} if sensor_units is None else extras.datasheet_section(results, data, sensor_units)
     report = calibration_report(results, rec, freq, dt, args.scale)
+    report["units"] = {"signal": sensor_units, "note": "parameters: canonical per-sample values "
+                       "in the signal unit u (see physical for SI, datasheet for datasheet units)"}
+    report["datasheet"] = {c: d.to_dict() for c, d in sheets.items()}
+    report["triads"] = [t.to_dict() for t in triads]
     path = out / "calibration.json"
     path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
+    exported = extras.write_exports_for(args, results, sensor_units, out)
     units = XSENS_UNITS if args.file is None else rec.unit_map()
     figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units)
+    title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
+             f"({rec.data.shape[0]} samples at {freq:g} Hz)")
+    figures += extras.write_report_for(args, results, data, sheets, exported, triads, title, out)
+    if quiet:
+        return report
     if args.json:
         print_json(report)
-        return 0
+        return report
     print(_table(results, rec, freq, units))
     print()
     print(format_table(["column", "selected", "2nd", "criterion gap"],
                        [[s.column, s.ranking[0].model, s.ranking[1].model if len(s.ranking) > 1 else "-",
                          s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
                         for s in results]))
-    written = [str(path)] + [str(f) for f in figures]
     for sel in results:
         if sel.empirical.contamination is not None:
             print(f"\n{sel.column}: {sel.empirical.contamination.summary()}")
+    for text in [t.summary() for t in triads] + [d.summary() for d in sheets.values()]:
+        print(f"\n{text}")
+    written = [str(path)] + [str(f) for f in exported + figures]
     print(f"\nwrote {', '.join(written)}")
-    return 0
+    return report

@@ -48,7 +48,7 @@ from stochmod.reporting import format_table
 from stochmod.signal.robust_wv import check_efficiency
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 
-__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph",
+__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",
            "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (read through __getattr__)
 
 
@@ -88,7 +88,9 @@ def _term_key(p: Process) -> tuple[str, tuple]:
     return p.family, tuple(sorted(p.structure().items()))
 
 
-def _terms(model: Model) -> Counter:
+def model_terms(model: Model) -> Counter:
+    """The structure of `model`: a multiset of its processes' structural identities (family and
+    structural arguments, not values); two models with equal terms are the same candidate."""
     return Counter(_term_key(p) for p in model.processes)
 
 
@@ -153,7 +155,7 @@ def nested_graph(models: Sequence[Model]) -> nx.DiGraph:
             raise InputError(f"candidate {m.name!r} is listed twice (candidates are told apart by "
                              "their structure, not by fixed values)")
         graph.add_node(m.name, model=m, n_params=m.n_params)
-        keys[m.name] = _terms(m)
+        keys[m.name] = model_terms(m)
     for child, ck in keys.items():
         for parent, pk in keys.items():
             diff = ck - pk
