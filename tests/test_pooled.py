@@ -138,5 +138,5 @@ def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
     assert test["dof"] == ref.dof and test["pvalue"] > 0.01
     direct = stochmod.select(xs, FREQ, candidates=["WN", "GM+WN"])
     assert report["columns"]["gyro_x"]["name"] == direct.best.model.name == "GM+WN"
-    assert main(["calibrate", *files, "--out", str(out)]) == 2
-    assert "add --pooled" in capsys.readouterr().err
+    assert main(["calibrate", "--pooled", "--out", str(out)]) == 2  # no FILE: no replicates
+    assert "--pooled needs two or more FILEs" in capsys.readouterr().err
