@@ -197,8 +197,6 @@ def wvar(
     if ci not in CI_METHODS:
         raise InputError(f"ci must be one of {CI_METHODS}, got {ci!r}")
     alpha = check_alpha(alpha)
-    if x.max() == x.min():
-        raise InputError("x is constant: its wavelet variance is zero at every level")
 
     js = np.arange(1, n_levels + 1)
     wv = np.empty(n_levels)
@@ -216,6 +214,10 @@ def wvar(
             buf[m:previous] = 0.0  # the previous level's coefficients: now zero padding
             previous = m
             s_hat[j - 1] = _sum_squared_acov(buf, m)
+    # a constant signal has W_1 = x_t - x_{t-1} = 0 exactly, so only then is the min/max pass
+    # needed (a level-1 WV can also underflow to 0 on a non-constant signal of tiny values)
+    if wv[0] == 0.0 and x.max() == x.min():
+        raise InputError("x is constant: its wavelet variance is zero at every level")
     if ci == "chi2":
         low, high = _chi2_interval(wv, n_coef, js, alpha)
     else:
