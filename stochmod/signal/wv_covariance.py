@@ -21,6 +21,7 @@ from stochmod.signal.modwt import _check_level, _pyramid, default_levels, modwt_
 
 __all__ = ["wv_covariance"]
 
+_FFT_BATCH = 2  # levels transformed together, on as many threads
 _GEMM_SIZE = 1 << 18  # J * J * block at most: OpenBLAS runs such products on one thread
 # (threaded BLAS calls stall for seconds when the other cores are busy; see modwt._DOT)
 
@@ -33,24 +34,29 @@ def _power_spectra(
     Returns ``(powers, scale, sizes)``: float32 rows of ``nfft // 2 + 1`` frequencies, the
     float64 factors ``scale_j = mean(W_j^2)`` (unit^2) that undo the normalisation, and M_j.
     Each series is divided by its RMS before the single-precision FFT, so that neither
-    ``|X|^2`` nor its products leave float32's range whatever the signal's unit.
+    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. The levels
+    are transformed ``_FFT_BATCH`` at a time, one thread each (independent transforms: the
+    only step of the computation that two cores share well).
     """
     n = x.size
     powers = np.empty((levels, nfft // 2 + 1), dtype=np.float32)
     scale = np.zeros(levels)
     sizes = np.empty(levels, dtype=np.int64)
     coef = np.empty(n)
-    buf = np.zeros(nfft, dtype=np.float32)
-    previous = n
+    batch = min(_FFT_BATCH, levels)
+    buf = np.zeros((batch, nfft), dtype=np.float32)
+    filled = np.full(batch, n)  # length of the series last written to each row
     for j, sumsq, m in _pyramid(x, levels, wavelet, coef):
         ms = sumsq / m
-        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
-        buf[m:previous] = 0.0  # the previous level's longer series
-        previous = m
-        spec = fft.rfft(buf).view(np.float32)  # interleaved (re, im)
-        np.square(spec, out=spec)
-        np.add(spec[0::2], spec[1::2], out=powers[j - 1])
+        row = (j - 1) % batch
+        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[row, :m])
+        buf[row, m : filled[row]] = 0.0  # the rest of a longer, earlier series
+        filled[row] = m
         scale[j - 1], sizes[j - 1] = ms, m
+        if row == batch - 1 or j == levels:
+            spec = fft.rfft(buf[: row + 1], workers=row + 1).view(np.float32)  # (re, im)
+            np.square(spec, out=spec)
+            np.add(spec[:, 0::2], spec[:, 1::2], out=powers[j - 1 - row : j])
     return powers, scale, sizes
 
 
@@ -105,7 +111,8 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     The transforms are in single precision (relative error ~1e-6, far below the estimator's
     own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
     time and memory; the products and sums are in double precision. Memory: the J float32
-    half spectra, about 4 J N bytes, plus the float32 FFT buffer and one float64 copy of `x`.
+    half spectra, about 4 J N bytes, plus two float32 FFT buffers (levels are transformed in
+    pairs, on two threads) and two float64 copies of `x`.
     """
     x = as_signal(x, name="x", min_length=2)
     modwt_filters(wavelet)
