@@ -17,7 +17,9 @@ The transform is computed with the MODWT pyramid algorithm restricted to the int
 work array), never with ``pywt.swt`` (whose cost explodes at deep levels and which needs a
 power-of-two length). For Haar the pyramid is a moving-sum doubling: each level costs one
 addition and one subtraction per sample; unlike differences of one cumulative sum, its
-round-off does not grow with N or with the signal's mean.
+round-off does not grow with N or with the signal's mean. When only the sums of squares are
+needed (the wavelet variance), the shallow Haar levels are computed several at a time, block
+by block, in one pass over memory (:func:`_haar_sweep`).
 """
 
 from __future__ import annotations
@@ -349,7 +351,9 @@ def _pyramid(
     """Run the interior MODWT pyramid; yield ``(j, sum of W_j^2, M_j)`` for j = 1..levels.
 
     When `w_out` (length >= M_1) is given, ``w_out[:M_j]`` holds the level-j coefficients at
-    the time of the yield (overwritten at the next level). Extra memory: one copy of `x`.
+    the time of the yield (overwritten at the next level). Extra memory: one copy of `x`
+    and two blocks of ``_CHUNK + _CHUNK / _HALO`` samples. For Haar without `w_out`, levels
+    served by one sweep are yielded together after it.
     """
     h, g = _filters(wavelet)
     width1 = h.size
