@@ -50,11 +50,6 @@ OPERATOR_IMPORTS = {("stochmod.process", "stochmod.model")}
 
 
 
-#: Private names taken across modules outside issue 9 part B's partition (signal/): modwt's
-#: _check_level and _pyramid need public names, or a private helper module. Reported to the
-#: lead; an entry that no longer occurs fails the test.
-OUTSIDE_PARTITION_PRIVATE_IMPORTS = {("stochmod.signal.wv_classical", "stochmod.signal.modwt"),
-                                     ("stochmod.signal.robust_wv", "stochmod.signal.modwt")}
 
 
 @attrs.frozen
@@ -199,11 +194,8 @@ def test_no_module_takes_a_private_name_from_a_public_module() -> None:
     for plugin in sorted((REPO / "plugins").iterdir()):
         if (plugin / "__init__.py").is_file():
             found.extend(_private_imports(plugin, "stochmod"))
-    bad = [f"{_where(e)} takes {', '.join(n for n in e.names if n.startswith('_'))}" for e in found
-           if (e.source, e.target) not in OUTSIDE_PARTITION_PRIVATE_IMPORTS]
+    bad = [f"{_where(e)} takes {', '.join(n for n in e.names if n.startswith('_'))}" for e in found]
     assert not bad, "private names taken from public modules:\n" + "\n".join(bad)
-    stale = OUTSIDE_PARTITION_PRIVATE_IMPORTS - {(e.source, e.target) for e in found}
-    assert not stale, f"delete these entries of OUTSIDE_PARTITION_PRIVATE_IMPORTS: {stale}"
 
 
 def test_the_core_never_imports_a_plugin_package() -> None:

@@ -141,3 +141,19 @@ def test_decoupled_covariance_keeps_the_well_estimated_block():
     np.testing.assert_array_equal(np.diag(out)[6:], chi2[6:])
     assert np.all(out[6:, :6] == 0)
     assert np.all(np.linalg.eigvalsh(out) > 0)
+
+
+@pytest.mark.parametrize("unit", [1e-30, 1e25])
+def test_any_unit_scales_as_its_fourth_power(unit):
+    """Covariance is unit^4: the single-precision transforms must not under/overflow."""
+    x = np.random.default_rng(8).normal(size=1500).cumsum()
+    V = wv_covariance(x, 6)
+    assert V == pytest.approx(direct_eq17(x, 6), rel=2e-5)
+    np.testing.assert_allclose(wv_covariance(unit * x, 6) / unit**4, V, rtol=1e-5)
+
+
+def test_default_levels_and_more_than_the_data_allow():
+    x = np.random.default_rng(9).normal(size=1000)
+    assert wv_covariance(x).shape == (8, 8)  # floor(log2 1000) - 1
+    with pytest.raises(InputError, match="levels=10"):
+        wv_covariance(x, 10)

@@ -17,7 +17,9 @@ The transform is computed with the MODWT pyramid algorithm restricted to the int
 work array), never with ``pywt.swt`` (whose cost explodes at deep levels and which needs a
 power-of-two length). For Haar the pyramid is a moving-sum doubling: each level costs one
 addition and one subtraction per sample; unlike differences of one cumulative sum, its
-round-off does not grow with N or with the signal's mean.
+round-off does not grow with N or with the signal's mean. When only the sums of squares are
+needed (the wavelet variance), the shallow Haar levels are computed several at a time, block
+by block, in one pass over memory (:func:`_haar_sweep`).
 """
 
 from __future__ import annotations
@@ -43,9 +45,12 @@ __all__ = [
     "squared_gain",
     "modwt_coefficients",
     "iter_modwt",
+    "pyramid",
+    "check_level",
 ]
 
 _CHUNK = 1 << 16  # samples per block of the pyramid: the working set stays in cache
+_HALO = 16  # a sweep of several Haar levels recomputes at most _CHUNK / _HALO samples per block
 _DOT = 8192  # dot products in pieces below OpenBLAS's threading threshold (n > 10000): threaded
 # BLAS calls on such short vectors stall for milliseconds when the other cores are busy
 
@@ -126,7 +131,9 @@ def default_levels(n: int, wavelet: str = "haar") -> int:
     return max(1, min(int(math.floor(math.log2(n))) - 1, top))
 
 
-def _check_level(n: int, level: int, wavelet: str, name: str = "level") -> int:
+def check_level(n: int, level: int, wavelet: str, name: str = "level") -> int:
+    """`level` checked as a positive number of levels that `n` samples support for `wavelet`
+    (InputError naming `name` otherwise)."""
     level = check_positive_int(level, name=name)
     top = max_level(n, wavelet)
     if level > top:
@@ -290,23 +297,80 @@ def _sumsq(w: np.ndarray) -> float:
     return float(np.vecdot(rows, rows).sum()) + float(np.dot(rest, rest))
 
 
-def _pyramid(
+def _haar_block(levels: int, first: int, chunk: int) -> int:
+    """Number of Haar levels, from `first`, that one sweep of `chunk`-sample blocks serves.
+
+    A sweep of k levels recomputes a halo of ``2^(first-1) (2^k - 1)`` samples per block, kept
+    at most ``chunk / _HALO``; a lone level needs no halo.
+    """
+    k = 1
+    while first + k <= levels and 2 ** (first - 1) * (2 ** (k + 1) - 1) <= chunk // _HALO:
+        k += 1
+    return k
+
+
+def _haar_sweep(
+    src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
+    scratch: np.ndarray, local: np.ndarray,
+) -> list[float]:
+    """Haar levels ``first .. first + k - 1`` in one pass over memory; return their sums of W^2.
+
+    `src[:n_valid]` holds the unscaled sums V_{first-1} (the signal itself for first = 1);
+    ``v[:n_valid - halo]`` receives V_{first+k-1} (skipped when `last`: nothing follows).
+    Each block of ``_CHUNK`` output samples is read once with its halo of
+    ``2^(first-1) (2^k - 1)`` samples, and all k levels are computed in the cache-sized
+    `local` buffer; every W and V value is the same floating-point operation as in a
+    level-by-level pyramid (only the order in which the squares are summed differs).
+    """
+    chunk = _CHUNK
+    steps = [2 ** (first - 1 + i) for i in range(k)]
+    halo = sum(steps)
+    end = n_valid - halo  # M of the block's last level = length of its V
+    totals = [0.0] * k
+    for s in range(0, end, chunk):
+        e = min(s + chunk, end)
+        tail = e == end  # the last block also owns the tails of the shallower levels
+        size = (n_valid if tail else e + halo) - s  # samples of V_{first-1} read
+        cur, base = src, s  # level input: cur[base : base + size]
+        for i, step in enumerate(steps):
+            size -= step  # M of this level within the block
+            own = size if tail else e - s
+            w = np.subtract(cur[base + step : base + step + own], cur[base : base + own],
+                            out=scratch[:own])
+            totals[i] += _sumsq(w)
+            if i < k - 1:  # V of this level, over the block and what the next levels need
+                np.add(cur[base : base + size], cur[base + step : base + step + size],
+                       out=local[:size])
+            elif not last:  # the block's last V goes to the work array
+                own = e - s
+                np.add(cur[base : base + own], cur[base + step : base + step + own],
+                       out=v[s:e])
+            cur, base = local, 0
+    return totals
+
+
+def pyramid(
     x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None,
     sumsq: bool = True,
 ) -> Iterator[tuple[int, float, int]]:
     """Run the interior MODWT pyramid; yield ``(j, sum of W_j^2, M_j)`` for j = 1..levels.
 
     When `w_out` (length >= M_1) is given, ``w_out[:M_j]`` holds the level-j coefficients at
-    the time of the yield (overwritten at the next level). With ``sumsq=False`` the sums of
-    squares are not accumulated (0.0 is yielded): callers that only need the coefficients.
-    Extra memory: one copy of `x`.
+    the time of the yield (overwritten at the next level). With ``sumsq=False`` (and `w_out`)
+    the sums of squares are not accumulated (0.0 is yielded): callers that only need the
+    coefficients. Extra memory: one copy of `x`
+    and two blocks of ``_CHUNK + _CHUNK / _HALO`` samples. For Haar without `w_out`, levels
+    served by one sweep are yielded together after it.
     """
     h, g = _filters(wavelet)
     width1 = h.size
+    haar = width1 == 2
+    if haar and w_out is None:
+        yield from _haar_pyramid(x, levels)
+        return
     v = np.array(x, dtype=np.float64, copy=True)  # V_{j-1} interior (Haar: unscaled sums)
     n_valid = v.size
     item = v.strides[0]
-    haar = width1 == 2
     sign = 1.0 if h[0] > 0 else -1.0
     coef = np.vstack([h[::-1], g[::-1]])  # rows: taps at offsets 0, step, ..., (L1-1) step
     scratch = np.empty(_CHUNK)
@@ -340,6 +404,27 @@ def _pyramid(
         yield j, (total * 0.25**j if haar else total), m
 
 
+def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]]:
+    """:func:`pyramid` for Haar without coefficients: several levels per pass over memory.
+
+    The shallow levels, whose filters are short next to a block, are computed block by block
+    through all of them at once (:func:`_haar_sweep`); the first level reads `x` directly, so
+    no copy of the signal is made beyond the one work array of the sums.
+    """
+    v = np.empty(x.size)
+    size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
+    scratch, local = np.empty(size), np.empty(size)
+    src, n_valid, j = x, x.size, 1
+    while j <= levels:
+        k = _haar_block(levels, j, _CHUNK)
+        last = j + k - 1 == levels
+        totals = _haar_sweep(src, v, n_valid, j, k, last, scratch, local)
+        for i, total in enumerate(totals):
+            n_valid -= 2 ** (j - 1 + i)
+            yield j + i, total * 0.25 ** (j + i), n_valid
+        src, j = v, j + k
+
+
 def modwt_coefficients(x: ArrayLike, level: int, wavelet: str = "haar") -> np.ndarray:
     """Interior MODWT wavelet coefficients of `x` at one level.
 
@@ -366,9 +451,9 @@ def modwt_coefficients(x: ArrayLike, level: int, wavelet: str = "haar") -> np.nd
     """
     x = as_signal(x, name="x", min_length=1)
     _filters(wavelet)
-    level = _check_level(x.size, level, wavelet)
+    level = check_level(x.size, level, wavelet)
     buf = np.empty(x.size)
-    for j, _, m in _pyramid(x, level, wavelet, buf):
+    for j, _, m in pyramid(x, level, wavelet, buf):
         if j == level:
             return buf[:m].copy()
     raise AssertionError("unreachable")  # pragma: no cover
@@ -393,13 +478,13 @@ def iter_modwt(
     """
     x = as_signal(x, name="x", min_length=1)
     _filters(wavelet)
-    levels = default_levels(x.size, wavelet) if levels is None else _check_level(
+    levels = default_levels(x.size, wavelet) if levels is None else check_level(
         x.size, levels, wavelet, name="levels"
     )
 
     def gen() -> Iterator[tuple[int, np.ndarray]]:
         buf = np.empty(x.size)
-        for j, _, m in _pyramid(x, levels, wavelet, buf):
+        for j, _, m in pyramid(x, levels, wavelet, buf):
             yield j, buf[:m].copy()
 
     return gen()

@@ -69,8 +69,8 @@ from stochmod._validation import as_signal, check_alpha, check_freq
 from stochmod.errors import EstimationError, InputError
 from stochmod.reporting import format_number, format_table
 from stochmod.signal.modwt import (
-    _check_level,
-    _pyramid,
+    check_level,
+    pyramid,
     default_levels,
     filter_width,
     modwt_filters,
@@ -583,7 +583,7 @@ def robust_wvar(
                             robust=True, efficiency=1.0, rho=rho)
     n = x.size
     n_levels = (default_levels(n, wavelet) if levels is None
-                else _check_level(n, levels, wavelet, "levels"))
+                else check_level(n, levels, wavelet, "levels"))
     if ci not in CI_METHODS:
         raise InputError(f"ci must be one of {CI_METHODS}, got {ci!r}")
     alpha = check_alpha(alpha)
@@ -603,7 +603,7 @@ def robust_wvar(
     lows: list[float] = []
     classical: list[int] = []
     highs: list[float] = []
-    for j, _, m in _pyramid(x, n_levels, wavelet, buf, sumsq=False):
+    for j, _, m in pyramid(x, n_levels, wavelet, buf, sumsq=False):
         try:
             est = m_scale(buf[:m], chi)
         except NoRootError:

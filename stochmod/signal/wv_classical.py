@@ -23,8 +23,8 @@ from stochmod._validation import as_signal, check_alpha, check_freq
 from stochmod.errors import InputError
 from stochmod.reporting import format_number, format_table
 from stochmod.signal.modwt import (
-    _check_level,
-    _pyramid,
+    check_level,
+    pyramid,
     default_levels,
     filter_width,
     modwt_filters,
@@ -239,13 +239,11 @@ def classical_wvar(
     modwt_filters(wavelet)
     n = x.size
     n_levels = (
-        default_levels(n, wavelet) if levels is None else _check_level(n, levels, wavelet, "levels")
+        default_levels(n, wavelet) if levels is None else check_level(n, levels, wavelet, "levels")
     )
     if ci not in CI_METHODS:
         raise InputError(f"ci must be one of {CI_METHODS}, got {ci!r}")
     alpha = check_alpha(alpha)
-    if x.max() == x.min():
-        raise InputError("x is constant: its wavelet variance is zero at every level")
 
     js = np.arange(1, n_levels + 1)
     wv = np.empty(n_levels)
@@ -256,13 +254,17 @@ def classical_wvar(
         buf = np.zeros(scipy.fft.next_fast_len(2 * m1 - 1, real=True))
         s_hat = np.empty(n_levels)
     previous = n
-    for j, sumsq, m in _pyramid(x, n_levels, wavelet, buf):
+    for j, sumsq, m in pyramid(x, n_levels, wavelet, buf):
         wv[j - 1] = sumsq / m
         n_coef[j - 1] = m
         if buf is not None:
             buf[m:previous] = 0.0  # the previous level's coefficients: now zero padding
             previous = m
             s_hat[j - 1] = _sum_squared_acov(buf, m)
+    # a constant signal has W_1 = x_t - x_{t-1} = 0 exactly, so only then is the min/max pass
+    # needed (a level-1 WV can also underflow to 0 on a non-constant signal of tiny values)
+    if wv[0] == 0.0 and x.max() == x.min():
+        raise InputError("x is constant: its wavelet variance is zero at every level")
     if ci == "chi2":
         low, high = chi2_interval(wv, n_coef, js, alpha)
     else:

@@ -1,11 +1,13 @@
 """Asymptotic covariance of the empirical wavelet variance (Stebler et al. 2014, eq. 17), by FFT.
 
 For levels m and l, eq. 17 sums the squared sample cross-covariances of the two wavelet
-coefficient series over all lags. With every level's interior coefficients placed at their
-time indices in a zero-padded buffer of length >= 2N, the cross-correlation sequence is a
-product of discrete Fourier transforms, and by Parseval its sum of squares is
-``sum_f |X_m(f)|^2 |X_l(f)|^2 / nfft``: one FFT per level and one dot product per pair,
-O(J N log N) in all, where the paper found the direct sum infeasible for long signals.
+coefficient series over all lags. With each level's interior coefficients zero-padded to a
+length ``nfft >= 2N``, the cross-correlation sequence is a product of discrete Fourier
+transforms, and by Parseval its sum of squares is ``sum_f |X_m(f)|^2 |X_l(f)|^2 / nfft``:
+one real FFT per level and, for all pairs at once, one Gram matrix of the level power
+spectra, O(J N log N + J^2 N) in all, where the paper found the direct sum infeasible for
+long signals. The sum over all lags does not depend on where each series sits in the
+buffer, so every level starts at index 0.
 """
 
 from __future__ import annotations
@@ -15,9 +17,72 @@ from numpy.typing import ArrayLike
 from scipy import fft
 
 from stochmod._validation import as_signal
-from stochmod.signal.modwt import filter_width, iter_modwt
+from stochmod.errors import InputError
+from stochmod.signal.modwt import check_level, pyramid, default_levels, modwt_filters
 
 __all__ = ["wv_covariance"]
+
+_FFT_BATCH = 2  # levels transformed together, on as many threads
+_GEMM_SIZE = 1 << 18  # J * J * block at most: OpenBLAS runs such products on one thread
+# (threaded BLAS calls stall for seconds when the other cores are busy; see modwt._DOT)
+
+
+def _power_spectra(
+    x: np.ndarray, levels: int, wavelet: str, nfft: int, clip: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scaled half-spectrum powers ``|X_j(f)|^2 / scale_j`` of every level's interior W_j.
+
+    Returns ``(powers, scale, sizes)``: float32 rows of ``nfft // 2 + 1`` frequencies, the
+    float64 factors ``scale_j = mean(W_j^2)`` (unit^2) that undo the normalisation, and M_j.
+    Each series is divided by its RMS before the single-precision FFT, so that neither
+    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. The levels
+    are transformed ``_FFT_BATCH`` at a time, one thread each (independent transforms: the
+    only step of the computation that two cores share well). With `clip`, level j's
+    coefficients are first clipped to ``+-clip[j-1]``.
+    """
+    n = x.size
+    powers = np.empty((levels, nfft // 2 + 1), dtype=np.float32)
+    scale = np.zeros(levels)
+    sizes = np.empty(levels, dtype=np.int64)
+    coef = np.empty(n)
+    batch = min(_FFT_BATCH, levels)
+    buf = np.zeros((batch, nfft), dtype=np.float32)
+    filled = np.full(batch, n)  # length of the series last written to each row
+    for j, sumsq, m in pyramid(x, levels, wavelet, coef):
+        if clip is not None:
+            w = np.clip(coef[:m], -clip[j - 1], clip[j - 1], out=coef[:m])
+            sumsq = float(np.dot(w, w))
+        ms = sumsq / m
+        row = (j - 1) % batch
+        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[row, :m])
+        buf[row, m : filled[row]] = 0.0  # the rest of a longer, earlier series
+        filled[row] = m
+        scale[j - 1], sizes[j - 1] = ms, m
+        if row == batch - 1 or j == levels:
+            spec = fft.rfft(buf[: row + 1], workers=row + 1).view(np.float32)  # (re, im)
+            np.square(spec, out=spec)
+            np.add(spec[:, 0::2], spec[:, 1::2], out=powers[j - 1 - row : j])
+    return powers, scale, sizes
+
+
+def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
+    """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
+
+    The float32 rows are promoted to float64 block by block (blocks small enough for one
+    BLAS thread), so the products and their sums are in double precision.
+    """
+    J, K = powers.shape
+    width = max(64, _GEMM_SIZE // (J * J))
+    gram = np.zeros((J, J))
+    for s in range(0, K, width):
+        block = powers[:, s : s + width].astype(np.float64)
+        gram += block @ block.T
+    gram *= 2.0  # the conjugate half
+    ends = powers[:, [0, -1]].astype(np.float64) if nfft % 2 == 0 else powers[:, :1].astype(
+        np.float64
+    )
+    gram -= ends @ ends.T  # f = 0 (and nfft / 2) appear once in the full spectrum
+    return gram
 
 
 def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar", *,
@@ -33,7 +98,7 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     x : array_like, shape (N,)
         The signal.
     levels : int, optional
-        Number of levels J (default: all the signal allows).
+        Number of levels J (default: :func:`stochmod.signal.modwt.default_levels`).
     wavelet : str
         Orthogonal pywt wavelet (Haar by default).
     clip : array_like, shape (J,), optional
@@ -45,36 +110,34 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     -------
     ndarray, shape (J, J)
         Symmetric covariance of the estimator ``v_hat``, already divided by the sample sizes.
+
+    Raises
+    ------
+    InputError
+        Bad signal, bad `levels` (more than the data allow), unknown wavelet.
+
+    Notes
+    -----
+    The transforms are in single precision (relative error ~1e-6, far below the estimator's
+    own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
+    time and memory; the products and sums are in double precision. Memory: the J float32
+    half spectra, about 4 J N bytes, plus two float32 FFT buffers (levels are transformed in
+    pairs, on two threads) and two float64 copies of `x`.
     """
     x = as_signal(x, name="x", min_length=2)
+    modwt_filters(wavelet)
     n = x.size
+    J = default_levels(n, wavelet) if levels is None else check_level(n, levels, wavelet, "levels")
     nfft = fft.next_fast_len(2 * n, real=True)
-    weights = np.full(nfft // 2 + 1, 2.0)
-    weights[0] = 1.0
-    if nfft % 2 == 0:
-        weights[-1] = 1.0
-    powers: list[np.ndarray] = []
-    sizes: list[int] = []
-    # single-precision transforms (relative error ~1e-6, far below the estimator's own
-    # sampling error of order 1/sqrt(M_j)) halve the time and memory; sums are in float64
-    buf = np.zeros(nfft, dtype=np.float32)
-    bounds = None if clip is None else np.asarray(clip, dtype=np.float64)
-    for j, coef in iter_modwt(x, levels, wavelet):
-        if bounds is not None:
-            np.clip(coef, -bounds[j - 1], bounds[j - 1], out=coef)
-        start = filter_width(j, wavelet) - 1
-        buf[:] = 0.0
-        buf[start : start + coef.size] = coef
-        spec = fft.rfft(buf)
-        powers.append(spec.real**2 + spec.imag**2)
-        sizes.append(coef.size)
-    J = len(powers)
-    V = np.empty((J, J))
-    weights = weights.astype(np.float32)
-    for a in range(J):
-        wa = weights * powers[a]
-        for b in range(a, J):
-            M = min(sizes[a], sizes[b])
-            s = float(np.einsum("i,i->", wa, powers[b], dtype=np.float64)) / nfft / M**2
-            V[a, b] = V[b, a] = s / M
+    bounds = None
+    if clip is not None:
+        bounds = np.asarray(clip, dtype=np.float64)
+        if bounds.shape != (J,) or not np.all(bounds > 0):
+            raise InputError(f"clip must hold {J} positive bounds (one per level), got {bounds!r}")
+    powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds)
+    gram = _half_spectrum_gram(powers, nfft)
+    M = np.minimum.outer(sizes, sizes).astype(np.float64)
+    V = gram * np.outer(scale, scale) / (nfft * M**3)
+    upper = np.triu_indices(J, 1)
+    V.T[upper] = V[upper]  # exactly symmetric
     return V
