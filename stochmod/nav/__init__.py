@@ -19,11 +19,24 @@ from stochmod.nav.emulate import (
     magnetometer_heading,
     trajectory_from_profile,
 )
+from stochmod.nav.alignment import align_from_gnss, level, static_alignment
+from stochmod.nav.filter import InitialState, LooselyCoupledFilter, NavResult
+from stochmod.nav.measurements import GnssPosition, GnssVelocity, MagneticHeading, ZeroVelocity
 from stochmod.nav.records import GnssData, ImuData
 from stochmod.nav.strapdown import Mechanisation, NavState, StrapdownResult, strapdown
 
 __all__ = [
     "GnssData",
+    "GnssPosition",
+    "GnssVelocity",
+    "InitialState",
+    "LooselyCoupledFilter",
+    "MagneticHeading",
+    "NavResult",
+    "ZeroVelocity",
+    "align_from_gnss",
+    "level",
+    "static_alignment",
     "ImuData",
     "Mechanisation",
     "NavState",
