@@ -37,7 +37,15 @@ from stochmod.nav.records import GnssData, ImuData
 __all__ = [
     "SHORTNAME",
     "N380Drive",
+    "OUTAGE_DURATION",
+    "OUTAGE_STARTS",
+    "horizontal_error",
+    "in_outage",
     "load_n380",
+    "max_outage_errors",
+    "outage_windows",
+    "pyins_example_models",
+    "run_stochmod",
     "onavdata_missing_reason",
     "write_navigate_csvs",
 ]
@@ -158,3 +166,101 @@ def write_navigate_csvs(drive: N380Drive, directory: str | Path) -> tuple[Path, 
         delimiter=",", fmt="%.17g", header="time,lat,lon,height,vn,ve,vd,sd_n,sd_e,sd_d", comments="",
     )
     return imu_path, gnss_path
+
+
+#: The issue's three 60 s GNSS outages: starts in s after the first epoch (``N380Drive.t0``).
+OUTAGE_STARTS = (151.9, 279.2, 422.0)
+OUTAGE_DURATION = 60.0
+
+
+def outage_windows(t0: float) -> list[tuple[float, float]]:
+    """The outages as (start, end) on the unit's clock."""
+    return [(t0 + s, t0 + s + OUTAGE_DURATION) for s in OUTAGE_STARTS]
+
+
+def in_outage(time: np.ndarray, t0: float) -> np.ndarray:
+    """True where `time` falls inside one of the outages (the fixes to withhold)."""
+    time = np.asarray(time, dtype=float)
+    mask = np.zeros(time.shape, dtype=bool)
+    for start, end in outage_windows(t0):
+        mask |= (time >= start) & (time < end)
+    return mask
+
+
+def horizontal_error(time: np.ndarray, lat: np.ndarray, lon: np.ndarray,
+                     reference: Trajectory) -> np.ndarray:
+    """Horizontal distance (m) between a solution (deg) and the reference at the same times,
+    through the local radii of curvature (exact to ~1e-6 relative over metres)."""
+    from stochmod.nav.earth import principal_radii
+
+    ref = reference.at(time)
+    r_n, r_e = principal_radii(np.radians(ref.lat))
+    north = np.radians(np.asarray(lat) - ref.lat) * (r_n + ref.height)
+    east = np.radians(np.asarray(lon) - ref.lon) * (r_e + ref.height) * np.cos(np.radians(ref.lat))
+    return np.hypot(north, east)
+
+
+def max_outage_errors(time: np.ndarray, lat: np.ndarray, lon: np.ndarray,
+                      reference: Trajectory, t0: float) -> list[float]:
+    """Maximum horizontal error (m) in each outage window."""
+    time, lat, lon = (np.asarray(a, dtype=float) for a in (time, lat, lon))
+    worst = []
+    for start, end in outage_windows(t0):
+        k = (time >= start) & (time <= end)
+        worst.append(float(horizontal_error(time[k], lat[k], lon[k], reference).max()))
+    return worst
+
+
+def pyins_example_models(freq: float = 100.0):
+    """pyins' real-data example MEMS model (bench/nav_pyins_n380.py) as stochmod models.
+
+    Gyro: white noise 1 deg/sqrt(h) + random walk 30 deg/h/sqrt(h) with a turn-on bias of
+    300 deg/h (1-sigma); accelerometer: white noise 0.1/60 m/s/sqrt(s) + random walk 0.01/60
+    m/s^2/sqrt(s) with a turn-on bias of 0.05 m/s^2. Returns ``(gyro_model, accel_model,
+    gyro_bias_sd, accel_bias_sd)``: per-axis models bound to `freq` and the bias sigmas in SI.
+    """
+    import stochmod
+
+    deg_h = np.pi / 180.0 / 3600.0
+    gyro = (stochmod.WN.from_density(np.pi / 180.0 / 60.0, freq)
+            + stochmod.RW.from_rrw(30.0 * deg_h / 60.0, freq)).bind(freq)
+    accel = (stochmod.WN.from_density(0.1 / 60.0, freq)
+             + stochmod.RW.from_rrw(0.01 / 60.0, freq)).bind(freq)
+    return gyro, accel, 300.0 * deg_h, 0.05
+
+
+def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
+                 gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
+                 initial_error: dict | None = None, gate: float | None = None):
+    """stochmod's loosely-coupled filter on the drive with the issue's three outages.
+
+    Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
+    initial sd 5 m, 0.5 m/s, 0.2/0.2/1 deg, covariance step 0.1 s, no lever arm, no gating:
+    the settings of the pyins run. `initial_error` (``{"ned": m, "vel": m/s, "rph": deg}``)
+    perturbs the reference start as pyins' run does. Returns the NavResult.
+    """
+    from stochmod.nav import InitialState, LooselyCoupledFilter
+
+    g_default, a_default, gb, ab = pyins_example_models()
+    gyro = g_default if gyro is None else gyro
+    accel = a_default if accel is None else accel
+    gyro_bias_sd = gb if gyro_bias_sd is None else gyro_bias_sd
+    accel_bias_sd = ab if accel_bias_sd is None else accel_bias_sd
+    ref, imu = drive.reference, drive.imu
+    err = initial_error or {"ned": [0, 0, 0], "vel": [0, 0, 0], "rph": [0, 0, 0]}
+    from stochmod.nav.earth import principal_radii
+
+    r_n, r_e = principal_radii(np.radians(ref.lat[0]))
+    lat0 = ref.lat[0] + np.degrees(err["ned"][0] / (r_n + ref.height[0]))
+    lon0 = ref.lon[0] + np.degrees(err["ned"][1] / ((r_e + ref.height[0]) * np.cos(np.radians(ref.lat[0]))))
+    init = InitialState(lat0, lon0, ref.height[0] - err["ned"][2], ref.vel_ned[0] + err["vel"],
+                        ref.rph[0] + np.asarray(err["rph"]), sd_position=5.0, sd_velocity=0.5,
+                        sd_attitude=(0.2, 0.2, 1.0))
+    g = drive.gnss
+    gnss = GnssData(g.time, g.lat, g.lon, g.height, vel_ned=g.vel_ned if velocity else None)
+    flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+                               accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
+                               gnss_vel_sd=0.3)
+    outages = [(s, OUTAGE_DURATION) for s in OUTAGE_STARTS]
+    return flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss, init=init,
+                   outages=outages)
