@@ -22,15 +22,18 @@ takes (:class:`stochmod.nav.records.ImuData`, :class:`~stochmod.nav.records.Gnss
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 
-from stochmod.errors import InputError
+from stochmod.errors import InputError, StochmodError
 from stochmod.io import _read_csv, _unreadable_as_input_error
+from stochmod.model import Model, model_from_spec
+from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
 
-__all__ = ["read_imu_csv", "read_gnss_csv", "IMU_COLUMNS", "GNSS_COLUMNS"]
+__all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "IMU_COLUMNS", "GNSS_COLUMNS"]
 
 IMU_COLUMNS: dict[str, tuple[str, ...]] = {
     "rate": ("time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
@@ -188,3 +191,61 @@ def read_gnss_csv(path: str | Path) -> GnssData:
             f"{path}: {GNSS_COLUMNS['sd'][col]} must be positive (m); data row {row + 1} has {float(sd[row, col])}"
         )
     return GnssData(time=time, lat=lat, lon=lon, height=height, vel_ned=vel, sd=sd)
+
+
+def read_calibration(path: str | Path) -> dict[str, Model]:
+    """Per-axis error models from the ``calibration.json`` that ``stochmod calibrate`` writes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file; its ``columns`` named ``gyro_x ... accel_z`` (case-insensitive) give
+        each axis's ``model`` spec (rad/s and m/s^2 units), bound to the spec's ``freq`` or the
+        file's ``freq``.
+
+    Returns
+    -------
+    dict of str to Model
+        Keys ``gyro_x ... accel_z``.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, missing axes, an axis given twice, a model that cannot be
+        built (the message names the axis).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"no such calibration file: {path}")
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path} is not a JSON file: {exc}") from None
+    columns = data.get("columns") if isinstance(data, dict) else None
+    if not isinstance(columns, dict):
+        raise InputError(f"{path} has no 'columns' object; write it with `stochmod calibrate`")
+    by_axis: dict[str, dict] = {}
+    for name, entry in columns.items():
+        key = str(name).strip().lower()
+        if key in by_axis:
+            raise InputError(f"{path}: axis {key!r} appears more than once (case-insensitive)")
+        by_axis[key] = entry
+    missing = [a for a in AXES if a not in by_axis]
+    if missing:
+        raise InputError(f"{path}: calibration has no column(s) {missing}; the navigation "
+                         f"filter needs a model for each of {list(AXES)}")
+    models = {}
+    for axis in AXES:
+        entry = by_axis[axis]
+        spec = entry.get("model") if isinstance(entry, dict) else None
+        if spec is None:
+            raise InputError(f"{path}: column {axis!r} has no 'model'")
+        freq = spec.get("freq", data.get("freq")) if isinstance(spec, dict) else data.get("freq")
+        try:
+            model = model_from_spec(spec, freq)
+        except StochmodError as exc:
+            raise InputError(f"{path}: the model of {axis!r} cannot be built: {exc}") from None
+        if model.freq is None:
+            raise InputError(f"{path}: the model of {axis!r} has no sampling frequency ('freq')")
+        models[axis] = model
+    return models
