@@ -119,3 +119,28 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
     bad.write_text("{not json")
     with pytest.raises(stochmod.errors.InputError, match="not a JSON file"):
         read_calibration(bad)
+
+
+def test_outages_cli_quick(recording, capsys) -> None:
+    folder, _ = recording
+    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
+                 "--quick", "--gyro-bias-sd", "1e-4"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "60+30 s" in out and "130+30 s" in out
+    assert "calibrated" in out and "white noise" in out and "mean NEES" in out
+    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs",
+                 "0"]) == 2
+
+
+def test_white_part() -> None:
+    from stochmod.cli.outages import white_part
+
+    two = (stochmod.WN(sigma2=1e-4) + stochmod.WN(sigma2=3e-4)
+           + stochmod.GM.from_correlation_time(10.0, 1e-2)).bind(FS)
+    assert white_part(two).processes[0].sigma2 == pytest.approx(4e-4)
+    gm = stochmod.Model((stochmod.GM.from_correlation_time(10.0, 1e-2),)).bind(FS)
+    white = white_part(gm)
+    # the substitute white noise has the GM's level-1 wavelet variance (WN's own formula)
+    assert float(white.wv(1)[0]) == pytest.approx(float(gm.wv(1)[0]), rel=1e-12)
+    assert [p.family for p in white.processes] == ["WN"] and white.freq == FS
