@@ -39,7 +39,6 @@ __all__ = [
     "N380Drive",
     "OUTAGE_DURATION",
     "OUTAGE_STARTS",
-    "horizontal_error",
     "in_outage",
     "load_n380",
     "max_outage_errors",
@@ -187,46 +186,24 @@ def in_outage(time: np.ndarray, t0: float) -> np.ndarray:
     return mask
 
 
-def horizontal_error(time: np.ndarray, lat: np.ndarray, lon: np.ndarray,
-                     reference: Trajectory) -> np.ndarray:
-    """Horizontal distance (m) between a solution (deg) and the reference at the same times,
-    through the local radii of curvature (exact to ~1e-6 relative over metres)."""
-    from stochmod.nav.earth import principal_radii
-
-    ref = reference.at(time)
-    r_n, r_e = principal_radii(np.radians(ref.lat))
-    north = np.radians(np.asarray(lat) - ref.lat) * (r_n + ref.height)
-    east = np.radians(np.asarray(lon) - ref.lon) * (r_e + ref.height) * np.cos(np.radians(ref.lat))
-    return np.hypot(north, east)
-
-
 def max_outage_errors(time: np.ndarray, lat: np.ndarray, lon: np.ndarray,
                       reference: Trajectory, t0: float) -> list[float]:
-    """Maximum horizontal error (m) in each outage window."""
-    time, lat, lon = (np.asarray(a, dtype=float) for a in (time, lat, lon))
-    worst = []
-    for start, end in outage_windows(t0):
-        k = (time >= start) & (time <= end)
-        worst.append(float(horizontal_error(time[k], lat[k], lon[k], reference).max()))
-    return worst
+    """Maximum horizontal error (m) of a solution (deg) in each of the drive's outages."""
+    from stochmod.nav.study import max_outage_errors as worst
+
+    return worst(reference, time, lat, lon, outage_windows(t0)).tolist()
 
 
 def pyins_example_models(freq: float = 100.0):
-    """pyins' real-data example MEMS model (bench/nav_pyins_n380.py) as stochmod models.
+    """pyins' real-data example MEMS model (bench/nav_pyins_n380.py) as stochmod models: the
+    defaults of ``stochmod navigate``. Gyro: white noise 1 deg/sqrt(h) + random walk
+    30 deg/h/sqrt(h), turn-on bias 300 deg/h; accelerometer: 0.1/60 m/s/sqrt(s) + 0.01/60
+    m/s^2/sqrt(s), turn-on bias 0.05 m/s^2. Returns ``(gyro_model, accel_model, gyro_bias_sd,
+    accel_bias_sd)`` (models bound to `freq`, sigmas in SI)."""
+    from stochmod.cli.navigate import DEFAULT_ACCEL_BIAS_SD, DEFAULT_GYRO_BIAS_SD, default_models
 
-    Gyro: white noise 1 deg/sqrt(h) + random walk 30 deg/h/sqrt(h) with a turn-on bias of
-    300 deg/h (1-sigma); accelerometer: white noise 0.1/60 m/s/sqrt(s) + random walk 0.01/60
-    m/s^2/sqrt(s) with a turn-on bias of 0.05 m/s^2. Returns ``(gyro_model, accel_model,
-    gyro_bias_sd, accel_bias_sd)``: per-axis models bound to `freq` and the bias sigmas in SI.
-    """
-    import stochmod
-
-    deg_h = np.pi / 180.0 / 3600.0
-    gyro = (stochmod.WN.from_density(np.pi / 180.0 / 60.0, freq)
-            + stochmod.RW.from_rrw(30.0 * deg_h / 60.0, freq)).bind(freq)
-    accel = (stochmod.WN.from_density(0.1 / 60.0, freq)
-             + stochmod.RW.from_rrw(0.01 / 60.0, freq)).bind(freq)
-    return gyro, accel, 300.0 * deg_h, 0.05
+    gyro, accel = default_models(freq)
+    return gyro, accel, DEFAULT_GYRO_BIAS_SD, DEFAULT_ACCEL_BIAS_SD
 
 
 def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
