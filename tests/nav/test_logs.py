@@ -82,13 +82,20 @@ IMU_RATE = ["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z
     ],
 )
 def test_imu_bad_files(tmp_path: Path, header: list[str], edit, message: str) -> None:
-    cols = [TIME.copy(), *GYRO.T.copy(), *ACCEL.T.copy()]
+    _assert_rejected(read_imu_csv, tmp_path / "imu.csv", header,
+                     [TIME.copy(), *GYRO.T.copy(), *ACCEL.T.copy()], edit, message)
+
+
+def _assert_rejected(reader, path: Path, header: list[str], cols: list[np.ndarray], edit,
+                     message: str) -> None:
+    """Write the columns (one cell changed by `edit` = (row, column, value)) and check that
+    `reader` raises an InputError naming the file and containing `message`."""
     if edit is not None:
         row, col, value = edit
         cols[col][row] = value
-    path = _write(tmp_path / "imu.csv", header, cols)
+    _write(path, header, cols)
     with pytest.raises(InputError) as info:
-        read_imu_csv(path)
+        reader(path)
     assert message in str(info.value)
     assert str(path) in str(info.value)
 
@@ -126,10 +133,4 @@ def test_no_header_and_no_file(tmp_path: Path) -> None:
 def test_gnss_bad_files(tmp_path: Path, header: list[str], edit, message: str) -> None:
     cols = [np.arange(6.0), np.full(6, 45.0), np.full(6, 7.0), np.full(6, 300.0),
             np.ones(6), np.ones(6), np.ones(6)][: len(header)]
-    if edit is not None:
-        row, col, value = edit
-        cols[col][row] = value
-    path = _write(tmp_path / "gnss.csv", header, cols)
-    with pytest.raises(InputError) as info:
-        read_gnss_csv(path)
-    assert message in str(info.value)
+    _assert_rejected(read_gnss_csv, tmp_path / "gnss.csv", header, cols, edit, message)
