@@ -134,7 +134,8 @@ def load_n380() -> N380Drive:
         sd_vel=gnss[["GnssStdvN", "GnssStdvE", "GnssStdvD"]].to_numpy(),
     )
 
-    pos, vel, att = (_read(files[k]).set_index("SystemTov") for k in ("position", "velocity", "attitude"))
+    pos, vel, att = (_read(files[k]).set_index("SystemTov")
+                     for k in ("position", "velocity", "attitude"))
     common = pos.index.intersection(vel.index).intersection(att.index)
     pos, vel, att = pos.loc[common], vel.loc[common], att.loc[common]
     reference = Trajectory(
@@ -162,7 +163,8 @@ def write_navigate_csvs(drive: N380Drive, directory: str | Path) -> tuple[Path, 
     g = drive.gnss
     np.savetxt(
         gnss_path, np.column_stack([g.time, g.lat, g.lon, g.height, g.vel_ned, g.sd]),
-        delimiter=",", fmt="%.17g", header="time,lat,lon,height,vn,ve,vd,sd_n,sd_e,sd_d", comments="",
+        delimiter=",", fmt="%.17g", header="time,lat,lon,height,vn,ve,vd,sd_n,sd_e,sd_d",
+        comments="",
     )
     return imu_path, gnss_path
 
@@ -208,12 +210,15 @@ def pyins_example_models(freq: float = 100.0):
 
 def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                  gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
-                 initial_error: dict | None = None, gate: float | None = None):
+                 initial_error: dict | None = None, gate: float | None = None,
+                 receiver_sd: bool = False):
     """stochmod's loosely-coupled filter on the drive with the issue's three outages.
 
     Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
     initial sd 5 m, 0.5 m/s, 0.2/0.2/1 deg, covariance step 0.1 s, no lever arm, no gating:
-    the settings of the pyins run. `initial_error` (``{"ned": m, "vel": m/s, "rph": deg}``)
+    the settings of the pyins run; ``receiver_sd=True`` uses the receiver's own per-fix position
+    and velocity sd instead (what ``stochmod navigate`` does with the CSVs). `initial_error`
+    (``{"ned": m, "vel": m/s, "rph": deg}``)
     perturbs the reference start as pyins' run does. Returns the NavResult.
     """
     from stochmod.nav import InitialState, LooselyCoupledFilter
@@ -229,12 +234,15 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
 
     r_n, r_e = principal_radii(np.radians(ref.lat[0]))
     lat0 = ref.lat[0] + np.degrees(err["ned"][0] / (r_n + ref.height[0]))
-    lon0 = ref.lon[0] + np.degrees(err["ned"][1] / ((r_e + ref.height[0]) * np.cos(np.radians(ref.lat[0]))))
+    lon0 = ref.lon[0] + np.degrees(
+        err["ned"][1] / ((r_e + ref.height[0]) * np.cos(np.radians(ref.lat[0]))))
     init = InitialState(lat0, lon0, ref.height[0] - err["ned"][2], ref.vel_ned[0] + err["vel"],
                         ref.rph[0] + np.asarray(err["rph"]), sd_position=5.0, sd_velocity=0.5,
                         sd_attitude=(0.2, 0.2, 1.0))
     g = drive.gnss
-    gnss = GnssData(g.time, g.lat, g.lon, g.height, vel_ned=g.vel_ned if velocity else None)
+    gnss = GnssData(g.time, g.lat, g.lon, g.height, vel_ned=g.vel_ned if velocity else None,
+                    sd=g.sd if receiver_sd else None,
+                    sd_vel=g.sd_vel if receiver_sd and velocity else None)
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
                                accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
                                gnss_vel_sd=0.3)

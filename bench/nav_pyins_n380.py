@@ -121,6 +121,16 @@ def _onavdata_inputs():
     return increments, gnss, pva0
 
 
+def initial_error() -> dict[str, list[float]]:
+    """pyins' start perturbation (``generate_pva_error(..., rng=0)``): NED m, m/s, deg."""
+    import pyins
+
+    e = pyins.sim.generate_pva_error(INIT["position_sd"], INIT["velocity_sd"],
+                                     INIT["level_sd"], INIT["azimuth_sd"], 0)
+    return {"ned": e[["north", "east", "down"]].tolist(), "vel": e[["VN", "VE", "VD"]].tolist(),
+            "rph": e[["roll", "pitch", "heading"]].tolist()}
+
+
 def run_pyins(increments, gnss, pva0, *, velocity: bool) -> tuple[object, float]:
     """pyins' feedback filter with the example's settings; returns (result, wall seconds)."""
     import pyins
@@ -157,6 +167,7 @@ def main(argv: list[str] | None = None) -> int:
            "settings": {"gyro": GYRO, "accel": ACCEL, "position_sd_m": POSITION_SD,
                         "velocity_sd_m_s": VELOCITY_SD, "initial": INIT, "lever_arm_m": [0, 0, 0],
                         "time_step_s": 0.1},
+           "initial_error": initial_error(),
            "issue_figures_m": {"position": [85, 6.6, 18], "position_velocity": [40, 5.2, 15.4]},
            "runs": {}}
     for source in args.inputs:

@@ -60,7 +60,8 @@ def _read_table(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
     keys = [name.strip().lower() for name in names]
     repeated = sorted({k for k in keys if keys.count(k) > 1})
     if repeated:
-        raise InputError(f"{path}: column(s) {repeated} appear more than once (names are case-insensitive)")
+        raise InputError(f"{path}: column(s) {repeated} appear more than once "
+                         "(names are case-insensitive)")
     return path, {k: data[:, i] for i, k in enumerate(keys)}
 
 
@@ -92,13 +93,15 @@ def _time(path: Path, table: dict[str, np.ndarray]) -> np.ndarray:
     if bad.size:
         i = bad[0]
         raise InputError(
-            f"{path}: time is not strictly increasing: data row {i + 2} has time {float(time[i + 1])} "
+            f"{path}: time is not strictly increasing: data row {i + 2} has time "
+            f"{float(time[i + 1])} "
             f"after {float(time[i])} in row {i + 1} ({bad.size} such step(s))"
         )
     return time
 
 
-def _triple(path: Path, table: dict[str, np.ndarray], names: tuple[str, ...], *, required: bool) -> np.ndarray | None:
+def _triple(path: Path, table: dict[str, np.ndarray], names: tuple[str, ...], *,
+            required: bool) -> np.ndarray | None:
     present = [n for n in names if n in table]
     if not present and not required:
         return None
@@ -179,7 +182,8 @@ def read_gnss_csv(path: str | Path) -> GnssData:
     outside = np.flatnonzero(np.abs(lat) > 90.0)
     if outside.size:
         raise InputError(
-            f"{path}: lat must be in [-90, 90] deg; data row {outside[0] + 1} has {float(lat[outside[0]])}"
+            f"{path}: lat must be in [-90, 90] deg; data row {outside[0] + 1} has "
+            f"{float(lat[outside[0]])}"
         )
     lon = _column(path, table, "lon")
     height = _column(path, table, "height")
@@ -188,7 +192,8 @@ def read_gnss_csv(path: str | Path) -> GnssData:
     if sd is not None and np.any(sd <= 0):
         row, col = np.argwhere(sd <= 0)[0]
         raise InputError(
-            f"{path}: {GNSS_COLUMNS['sd'][col]} must be positive (m); data row {row + 1} has {float(sd[row, col])}"
+            f"{path}: {GNSS_COLUMNS['sd'][col]} must be positive (m); data row {row + 1} has "
+            f"{float(sd[row, col])}"
         )
     return GnssData(time=time, lat=lat, lon=lon, height=height, vel_ned=vel, sd=sd)
 

@@ -54,7 +54,8 @@ def test_gnss_optional_triples(tmp_path: Path) -> None:
     lat, lon, h = 45.0 + 1e-5 * t, 7.0 - 1e-5 * t, 300.0 + t
     vel = RNG.normal(size=(5, 3))
     sd = 0.5 + RNG.uniform(size=(5, 3))
-    base = read_gnss_csv(_write(tmp_path / "a.csv", ["time", "lat", "lon", "height"], [t, lat, lon, h]))
+    base = read_gnss_csv(_write(tmp_path / "a.csv", ["time", "lat", "lon", "height"],
+                                [t, lat, lon, h]))
     assert base.vel_ned is None and base.sd is None
     np.testing.assert_array_equal(base.lat, lat)
     np.testing.assert_array_equal(base.height, h)
@@ -67,6 +68,7 @@ def test_gnss_optional_triples(tmp_path: Path) -> None:
     np.testing.assert_array_equal(full.sd, sd)
 
 
+GNSS_SD = ["time", "lat", "lon", "height", "sd_n", "sd_e", "sd_d"]
 IMU_RATE = ["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 
 
@@ -124,10 +126,10 @@ def test_no_header_and_no_file(tmp_path: Path) -> None:
         (["time", "lat", "lon"], None, r"missing column(s) ['height']"),
         (["time", "lat", "lon", "height", "vn", "ve"], None, "missing column(s) ['vd']"),
         (["time", "lat", "lon", "height", "v_n", "ve", "vd"], None, "unknown column(s) ['v_n']"),
-        (["time", "lat", "lon", "height", "sd_n", "sd_e", "sd_d"], (2, 5, 0.0), "sd_e must be positive"),
-        (["time", "lat", "lon", "height", "sd_n", "sd_e", "sd_d"], (1, 1, 91.0), "lat must be in [-90, 90]"),
-        (["time", "lat", "lon", "height", "sd_n", "sd_e", "sd_d"], (3, 3, np.inf), "'height' has 1 non-finite"),
-        (["time", "lat", "lon", "height", "sd_n", "sd_e", "sd_d"], (4, 0, 3.0), "data row 5 has time 3.0"),
+        (GNSS_SD, (2, 5, 0.0), "sd_e must be positive"),
+        (GNSS_SD, (1, 1, 91.0), "lat must be in [-90, 90]"),
+        (GNSS_SD, (3, 3, np.inf), "'height' has 1 non-finite"),
+        (GNSS_SD, (4, 0, 3.0), "data row 5 has time 3.0"),
     ],
 )
 def test_gnss_bad_files(tmp_path: Path, header: list[str], edit, message: str) -> None:
