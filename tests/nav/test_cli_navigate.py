@@ -121,6 +121,7 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
         read_calibration(bad)
 
 
+@pytest.mark.slow
 def test_outages_cli_quick(recording, capsys) -> None:
     folder, _ = recording
     code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
