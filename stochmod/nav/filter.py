@@ -468,6 +468,7 @@ class _Run:
         self.t, self.h, self.dth, self.dv, self.con, self.scu = t, h, dth, dv, con, scu
         self.events, self.truth = events, truth
         self.n = 9 + sens.n
+        self._eye = np.eye(self.n)
         self._F = np.zeros((self.n, self.n))
         self._F[0:3, 3:6] = np.eye(3)
         self._W = np.zeros((self.n, self.n))
@@ -548,8 +549,8 @@ class _Run:
         m = y.size
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
-        PHt = self.P @ H.T
-        S = H @ PHt + R
+        PHt = self.P[:, :9] @ Hn.T
+        S = Hn @ PHt[:9] + R
         try:
             Si = np.linalg.inv(S)
         except np.linalg.LinAlgError:
@@ -570,7 +571,7 @@ class _Run:
             self.rejected[kind] = self.rejected.get(kind, 0) + 1
             return
         K = PHt @ Si
-        IKH = np.eye(self.n) - K @ H
+        IKH = self._eye - K @ H
         P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form (Alg. 1 lines 4-6, 8)
         self.P = 0.5 * (P + P.T)
         dx = K @ y  # Alg. 1 line 5
@@ -579,13 +580,29 @@ class _Run:
     def _feedback(self, dx: np.ndarray) -> None:
         """Correct the mechanisation and the nominal sensor errors (Alg. 2 lines 28-30)."""
         mech = self.mech
-        rn, re = earth.principal_radii(mech.lat)
-        mech.lat -= dx[0] / (rn + mech.h)
-        mech.lon -= dx[1] / ((re + mech.h) * math.cos(mech.lat))
-        mech.h += dx[2]
-        mech.v = tuple(float(a - b) for a, b in zip(mech.v, dx[3:6]))
-        q = frames.quat_multiply(frames.rotvec_to_quat(dx[6:9]), np.array(mech.q))  # eq. 26
-        mech.q = tuple(float(x) for x in frames.quat_normalize(q))
+        sl = math.sin(mech.lat)
+        w = 1.0 - earth.E2 * sl * sl
+        re = earth.A / math.sqrt(w)
+        rn = re * (1.0 - earth.E2) / w
+        d = dx[:9].tolist()
+        mech.lat -= d[0] / (rn + mech.h)
+        mech.lon -= d[1] / ((re + mech.h) * math.cos(mech.lat))
+        mech.h += d[2]
+        vn, ve, vd = mech.v
+        mech.v = (vn - d[3], ve - d[4], vd - d[5])
+        # eq. 26 in multiplicative form: q <- q(psi) * q
+        px, py, pz = d[6:9]
+        a = math.sqrt(px * px + py * py + pz * pz)
+        s = 0.5 if a < 1e-9 else math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+        r1, r2, r3 = s * px, s * py, s * pz
+        q0, q1, q2, q3 = mech.q
+        n0 = c * q0 - r1 * q1 - r2 * q2 - r3 * q3
+        n1 = c * q1 + r1 * q0 + r2 * q3 - r3 * q2
+        n2 = c * q2 - r1 * q3 + r2 * q0 + r3 * q1
+        n3 = c * q3 + r1 * q2 - r2 * q1 + r3 * q0
+        nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        mech.q = (n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm)
         if self.sens.n:
             self.s = self.s - dx[9:]
             self.corr = self.sens.H @ self.s
@@ -605,31 +622,31 @@ class _Run:
         epochs: list[tuple] = []
         epoch_rows: list[int] = []
         nav_P: list[np.ndarray] = []
-        elapsed, fsum = 0.0, [0.0, 0.0, 0.0]
+        elapsed = 0.0
         self.t_now = self.t_prev = tl[0]
         self._record(epochs, epoch_rows, nav_P, 0)
-        corr = self.corr
+        cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
+        last = len(hl) - 1
+        step = mech.step
+        mech.dv_n = [0.0, 0.0, 0.0]
         for k in range(len(hl)):
             hk = hl[k]
-            cg0, cg1, cg2, ca0, ca1, ca2 = corr.tolist()
             a_, b_ = dth[k], dv[k]
             d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
-            d_v = (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk)
-            prev = (mech.lat, mech.lon, mech.h, mech.v)
-            mech.step(hk, d_th, d_v, con[k], scu[k])
-            fn = mech.f_n
-            fsum[0] += fn[0] * hk
-            fsum[1] += fn[1] * hk
-            fsum[2] += fn[2] * hk
-            elapsed += hk
             tk = tl[k + 1]
-            self.t_prev, self.t_now = tl[k], tk
             due = ie < ne and events[ie][0] <= tk + 1e-9
-            if due or elapsed >= dtf - 1e-9 or k == len(hl) - 1:
+            if due:
+                prev = (mech.lat, mech.lon, mech.h, mech.v)
+            step(hk, d_th, (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk), con[k], scu[k])
+            elapsed += hk
+            if due or elapsed >= dtf - 1e-9 or k == last:
+                self.t_prev, self.t_now = tl[k], tk
                 m = max(1, int(round(elapsed / dt_imu)))
-                self._propagate(elapsed, m, (fsum[0] / elapsed, fsum[1] / elapsed,
-                                             fsum[2] / elapsed))
-                elapsed, fsum = 0.0, [0.0, 0.0, 0.0]
+                acc = mech.dv_n
+                self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed,
+                                             acc[2] / elapsed))
+                mech.dv_n = [0.0, 0.0, 0.0]
+                elapsed = 0.0
                 if due:
                     C = _dcm(mech.q)
                     w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
@@ -638,7 +655,7 @@ class _Run:
                         self._update(events[ie][2], self._snapshot(events[ie][0], prev, w_nb))
                         ie += 1
                     self._check_psd()
-                corr = self.corr
+                cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
                 rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
                 self._record(epochs, epoch_rows, nav_P, len(rows) - 1)
             else:
