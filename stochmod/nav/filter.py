@@ -55,7 +55,7 @@ from stochmod.nav.measurements import (
     Snapshot,
     ZeroVelocity,
 )
-from stochmod.nav.records import GnssData, check_time
+from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
 from stochmod.nav.strapdown import Mechanisation, NavState, _check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
@@ -115,7 +115,7 @@ class InitialState:
 
 
 @attrs.frozen
-class NavResult:
+class NavResult(TrajectoryArrays):
     """Output of :meth:`LooselyCoupledFilter.run`.
 
     Navigation arrays are at the IMU time stamps from the start time on; their 1-sigma holds the
@@ -147,12 +147,6 @@ class NavResult:
         NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
     """
 
-    time: np.ndarray = array_field()
-    lat: np.ndarray = array_field()
-    lon: np.ndarray = array_field()
-    height: np.ndarray = array_field()
-    vel_ned: np.ndarray = array_field()
-    rph: np.ndarray = array_field()
     sd_position: np.ndarray = array_field()
     sd_velocity: np.ndarray = array_field()
     sd_rph: np.ndarray = array_field()

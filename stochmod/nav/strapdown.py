@@ -33,10 +33,9 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._fields import array_field
 from stochmod.errors import InputError
 from stochmod.nav import earth, frames
-from stochmod.nav.records import IMU_KINDS, check_time
+from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 
 __all__ = ["NavState", "Mechanisation", "StrapdownResult", "strapdown", "imu_increments"]
 
@@ -259,29 +258,9 @@ def imu_increments(time: np.ndarray, gyro: np.ndarray, accel: np.ndarray, kind: 
 
 
 @attrs.frozen
-class StrapdownResult:
-    """Free-inertial trajectory at the IMU time stamps.
-
-    Attributes
-    ----------
-    time : ndarray (n,)
-        s.
-    lat, lon : ndarray (n,)
-        deg.
-    height : ndarray (n,)
-        m (ellipsoidal).
-    vel_ned : ndarray (n, 3)
-        m/s.
-    rph : ndarray (n, 3)
-        Roll, pitch, heading, deg.
-    """
-
-    time: np.ndarray = array_field()
-    lat: np.ndarray = array_field()
-    lon: np.ndarray = array_field()
-    height: np.ndarray = array_field()
-    vel_ned: np.ndarray = array_field()
-    rph: np.ndarray = array_field()
+class StrapdownResult(TrajectoryArrays):
+    """Free-inertial trajectory at the IMU time stamps (time s, lat/lon deg, height m,
+    vel_ned m/s, rph deg)."""
 
 
 def _check_imu(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike
