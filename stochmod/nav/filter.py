@@ -234,7 +234,6 @@ class _Sensors:
                  if sd]
         if extra:
             k = len(extra)
-            n0 = len(names)
             names += [f"{AXES[i]}.bias" for i, _ in extra]
             Phi = _bdiag(Phi, np.eye(k))
             Q = _bdiag(Q, np.zeros((k, k)))
@@ -245,7 +244,6 @@ class _Sensors:
             H = np.hstack([H, Hx])
             if F is not None:
                 F, GQG = _bdiag(F, np.zeros((k, k))), _bdiag(GQG, np.zeros((k, k)))
-            del n0
         self.names = tuple(names)
         self.n = len(names)
         self.H = H                      # (6, n): rows gyro_x..accel_z
@@ -663,10 +661,14 @@ class _Run:
         nav_P.append(self.P[:9, :9].copy())
 
     def _check_psd(self) -> None:
-        d = np.diag(self.P)
-        if not np.all(np.isfinite(self.P)) or np.any(d < 0):
-            raise EstimationError(f"filter covariance lost positive definiteness at "
-                                  f"t = {self.t_now:.6g} s (diagonal {d.min():.3g})")
+        """Raise EstimationError unless the covariance is finite and positive semi-definite
+        (smallest eigenvalue above -1e-9 of the largest)."""
+        if not np.all(np.isfinite(self.P)):
+            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+        ev = np.linalg.eigvalsh(self.P)
+        if ev[0] < -1e-9 * max(ev[-1], 1e-300):
+            raise EstimationError(f"filter covariance lost positive semi-definiteness at "
+                                  f"t = {self.t_now:.6g} s (eigenvalues {ev[0]:.3g} .. {ev[-1]:.3g})")
 
     def _result(self, rows: list, epochs: list, epoch_rows: list, nav_P: list) -> NavResult:
         arr = np.array(rows)

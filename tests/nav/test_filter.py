@@ -223,3 +223,20 @@ def test_bad_configuration_is_refused(truth, clean_imu):
         flt.run(imu.time, imu.gyro, imu.accel, kind="increment", init=init)
     with pytest.raises(InputError, match="positive"):
         InitialState(47.0, 8.0, 500.0, [0, 0, 0], [0, 0, 0], sd_position=0.0).covariance()
+
+
+def test_a_broken_covariance_is_reported_not_hidden(truth, clean_imu, monkeypatch):
+    import stochmod.nav.filter as nf
+
+    real = nf._discretise
+
+    def broken(F, W, dt):  # a process noise with a negative eigenvalue
+        Phi, Q = real(F, W, dt)
+        return Phi, Q - np.eye(Q.shape[0]) * 10.0
+
+    monkeypatch.setattr(nf, "_discretise", broken)
+    imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
+    sel = truth.time <= 5.0
+    with pytest.raises(nf.EstimationError, match="positive semi-definiteness"):
+        _filter().run(imu.time[sel], imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss,
+                      init=init)
