@@ -219,7 +219,18 @@ class _Sensors:
 
     def __init__(self, models: dict[str, Model], dt: float, gyro_bias_sd: float,
                  accel_bias_sd: float) -> None:
-        aug = augment_axes(models, dt)
+        try:
+            aug = augment_axes(models, dt)
+        except InputError:
+            # a discrete-only family (AR) re-samples at whole multiples of its sample period:
+            # snap the base step to the nearest multiple (IMU clocks drift by ppm)
+            f = min(m.freq for m in models.values())
+            dt = max(1, round(dt * f)) / f
+            try:
+                aug = augment_axes(models, dt)
+            except InputError as exc:
+                raise InputError(f"the sensor models cannot be discretised at the IMU step: {exc}"
+                                 ) from None
         blk = aug.block
         order = [aug.axes.index(a) for a in AXES]
         H = aug.H[order]

@@ -172,6 +172,10 @@ def test_ar_models_give_a_discrete_sensor_block(truth, clean_imu):
     assert len(res.state_names) == 9 + 3 * 3 + 3 + 6  # 27 states
     assert "gyro_x.AR.lag2" in res.state_names
     assert np.isfinite(res.nees).all() and res.mean_nees < 3 * 9
+    # a real IMU clock (30 ppm fast) is not a whole multiple of the AR sample period
+    t = imu.time[sel] * (1 - 3e-5)
+    res2 = flt.run(t, imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss, init=init)
+    assert np.isfinite(res2.epoch_sd).all()
 
 
 def test_series_discretisation_matches_van_loan():
