@@ -162,6 +162,16 @@ class NavResult(TrajectoryArrays):
     gate: float | None = None
 
     @property
+    def lever_arm(self) -> np.ndarray | None:
+        """Estimated IMU-to-antenna lever arm (k, 3; body x/y/z, m) at the filter epochs, or None
+        when the filter did not estimate it (``lever_arm_sd`` = 0)."""
+        names = self.state_names[len(NAV_STATES):]
+        if "lever_arm.x" not in names:
+            return None
+        i = names.index("lever_arm.x")
+        return self.sensor_states[:, i:i + 3]
+
+    @property
     def mean_nees(self) -> float | None:
         """Average NEES over the epochs (9 for an honest filter), or None without truth."""
         return None if self.nees is None else float(np.mean(self.nees))
@@ -218,7 +228,7 @@ class _Sensors:
     """Sensor-error states: the stacked per-axis augmentation plus optional turn-on biases."""
 
     def __init__(self, models: dict[str, Model], dt: float, gyro_bias_sd: float,
-                 accel_bias_sd: float) -> None:
+                 accel_bias_sd: float, lever_arm_sd: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
         try:
             aug = augment_axes(models, dt)
         except InputError:
@@ -255,6 +265,17 @@ class _Sensors:
             H = np.hstack([H, Hx])
             if F is not None:
                 F, GQG = _bdiag(F, np.zeros((k, k))), _bdiag(GQG, np.zeros((k, k)))
+        self.lever = None
+        if any(lever_arm_sd):
+            # the antenna lever arm as three random constants (no effect on the IMU: zero H)
+            self.lever = slice(len(names), len(names) + 3)
+            names += [f"lever_arm.{a}" for a in "xyz"]
+            Phi = _bdiag(Phi, np.eye(3))
+            Q = _bdiag(Q, np.zeros((3, 3)))
+            P0 = _bdiag(P0, np.diag(np.square(lever_arm_sd)))
+            H = np.hstack([H, np.zeros((6, 3))])
+            if F is not None:
+                F, GQG = _bdiag(F, np.zeros((3, 3))), _bdiag(GQG, np.zeros((3, 3)))
         self.names = tuple(names)
         self.n = len(names)
         self.H = H                      # (6, n): rows gyro_x..accel_z
@@ -345,12 +366,18 @@ class LooselyCoupledFilter:
         Default N, E, D position 1-sigma (m) when the GNSS record has none.
     gnss_vel_sd : float or (3,)
         Default velocity 1-sigma (m/s).
+    lever_arm_sd : float or (3,)
+        1-sigma (m, body x/y/z) of the prior `lever_arm`: nonzero adds the lever arm as three
+        constant states estimated from the GNSS updates (``NavResult.lever_arm``); 0: the lever
+        arm is taken as exact. An antenna offset that the filter ignores is read as attitude and
+        accelerometer-bias errors at every turn (see docs/navigation.md, "Real drive").
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
                  lever_arm: ArrayLike = (0.0, 0.0, 0.0), gyro_bias_sd: float = 0.0,
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
-                 gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2) -> None:
+                 gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
+                 lever_arm_sd: object = 0.0) -> None:
         self.models = _axis_models(gyro_models, accel_models)
         if not (dt_filter > 0 and math.isfinite(dt_filter)):
             raise InputError(f"dt_filter must be a positive number of seconds, got {dt_filter!r}")
@@ -367,11 +394,18 @@ class LooselyCoupledFilter:
         self.gate = gate
         self.gnss_sd = np.broadcast_to(np.asarray(gnss_sd, dtype=float), (3,)).copy()
         self.gnss_vel_sd = np.broadcast_to(np.asarray(gnss_vel_sd, dtype=float), (3,)).copy()
+        try:
+            self.lever_arm_sd = np.broadcast_to(np.asarray(lever_arm_sd, dtype=float), (3,)).copy()
+        except ValueError:
+            raise InputError(f"lever_arm_sd must be one or three numbers, got {lever_arm_sd!r}"
+                             ) from None
+        if not np.all(np.isfinite(self.lever_arm_sd)) or np.any(self.lever_arm_sd < 0):
+            raise InputError(f"lever_arm_sd must be >= 0 and finite, got {lever_arm_sd!r}")
 
     # ------------------------------------------------------------------ set-up
     def state_names(self, dt_imu: float) -> tuple[str, ...]:
         """All state names for IMU step `dt_imu`."""
-        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd)
+        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd, self.lever_arm_sd)
         return NAV_STATES + s.names
 
     def _events(self, gnss: GnssData | None, heading: object, zero_velocity: object,
@@ -456,7 +490,8 @@ class LooselyCoupledFilter:
         if i0 > j0:  # drop the interval that ends at the start epoch
             t, h, dth, dv, con, scu = t[1:], h[1:], dth[1:], dv[1:], con[1:], scu[1:]
         dt_imu = float(np.median(h))
-        sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd)
+        sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd,
+                        self.lever_arm_sd)
         events = self._events(gnss, heading, zero_velocity, outages, float(t_all[0]), t[0])
         return _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth).execute()
 
@@ -480,6 +515,8 @@ class _Run:
             self._W[9:, 9:] = sens.GQG
         self.P = _bdiag(init.covariance(), sens.P0)
         self.s = np.zeros(sens.n)
+        if sens.lever is not None:  # nominal value of the lever-arm states: the prior
+            self.s[sens.lever] = flt.lever_arm
         self.mech = Mechanisation(init.nav_state())
         self.corr = np.zeros(6)
         self.thresholds = {}
@@ -545,15 +582,23 @@ class _Run:
         hgt = prev[2] + lam * (mech.h - prev[2])
         v = np.array(prev[3]) + lam * (np.array(mech.v) - np.array(prev[3]))
         C = _dcm(mech.q)
-        return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in))
+        arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
+        return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
 
     def _update(self, meas: Measurement, snap: Snapshot) -> None:
         y, Hn, R = meas.evaluate(snap)
         m = y.size
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
-        PHt = self.P[:, :9] @ Hn.T
-        S = Hn @ PHt[:9] + R
+        Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
+        if Hl is None:
+            PHt = self.P[:, :9] @ Hn.T
+            S = Hn @ PHt[:9] + R
+        else:
+            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
+            H[:, lever] = Hl
+            PHt = self.P @ H.T
+            S = H @ PHt + R
         try:
             Si = np.linalg.inv(S)
         except np.linalg.LinAlgError:
