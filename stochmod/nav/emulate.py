@@ -26,11 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from stochmod._fields import array_field
 from stochmod.errors import InputError
 from stochmod.model import Model
 from stochmod.nav import earth, frames
-from stochmod.nav.records import IMU_KINDS, GnssData, ImuData
+from stochmod.nav.records import IMU_KINDS, GnssData, ImuData, TrajectoryArrays
 
 __all__ = [
     "Segment",
@@ -166,37 +165,12 @@ class _ProfileMotion:
 
 
 @attrs.frozen
-class Trajectory:
-    """A reference trajectory sampled at `time`.
+class Trajectory(TrajectoryArrays):
+    """A reference trajectory: the arrays of :class:`~stochmod.nav.records.TrajectoryArrays`
+    (time s, lat/lon deg, height m, vel_ned m/s, rph deg) and, for a profile trajectory, the
+    analytic `motion` behind them (used by :func:`ideal_imu` and :meth:`at`)."""
 
-    Attributes
-    ----------
-    time : ndarray (n,)
-        s.
-    lat, lon : ndarray (n,)
-        deg.
-    height : ndarray (n,)
-        m.
-    vel_ned : ndarray (n, 3)
-        m/s.
-    rph : ndarray (n, 3)
-        Roll, pitch, heading, deg.
-    motion : object or None
-        The analytic motion behind a profile trajectory (used by :func:`ideal_imu`).
-    """
-
-    time: np.ndarray = array_field()
-    lat: np.ndarray = array_field()
-    lon: np.ndarray = array_field()
-    height: np.ndarray = array_field()
-    vel_ned: np.ndarray = array_field()
-    rph: np.ndarray = array_field()
     motion: _ProfileMotion | None = attrs.field(default=None, eq=False, repr=False)
-
-    @property
-    def n(self) -> int:
-        """Number of samples."""
-        return self.time.size
 
     def at(self, t: ArrayLike) -> Trajectory:
         """The trajectory at other times (exact for a profile trajectory; linear interpolation

@@ -55,7 +55,7 @@ from stochmod.nav.measurements import (
     Snapshot,
     ZeroVelocity,
 )
-from stochmod.nav.records import GnssData, check_time
+from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
 from stochmod.nav.strapdown import Mechanisation, NavState, _check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
@@ -115,7 +115,7 @@ class InitialState:
 
 
 @attrs.frozen
-class NavResult:
+class NavResult(TrajectoryArrays):
     """Output of :meth:`LooselyCoupledFilter.run`.
 
     Navigation arrays are at the IMU time stamps from the start time on; their 1-sigma holds the
@@ -147,12 +147,6 @@ class NavResult:
         NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
     """
 
-    time: np.ndarray = array_field()
-    lat: np.ndarray = array_field()
-    lon: np.ndarray = array_field()
-    height: np.ndarray = array_field()
-    vel_ned: np.ndarray = array_field()
-    rph: np.ndarray = array_field()
     sd_position: np.ndarray = array_field()
     sd_velocity: np.ndarray = array_field()
     sd_rph: np.ndarray = array_field()
@@ -166,6 +160,16 @@ class NavResult:
     rejected: dict = attrs.field(factory=dict)
     nees: np.ndarray | None = attrs.field(default=None, eq=False)
     gate: float | None = None
+
+    @property
+    def lever_arm(self) -> np.ndarray | None:
+        """Estimated IMU-to-antenna lever arm (k, 3; body x/y/z, m) at the filter epochs, or None
+        when the filter did not estimate it (``lever_arm_sd`` = 0)."""
+        names = self.state_names[len(NAV_STATES):]
+        if "lever_arm.x" not in names:
+            return None
+        i = names.index("lever_arm.x")
+        return self.sensor_states[:, i:i + 3]
 
     @property
     def mean_nees(self) -> float | None:
@@ -224,8 +228,19 @@ class _Sensors:
     """Sensor-error states: the stacked per-axis augmentation plus optional turn-on biases."""
 
     def __init__(self, models: dict[str, Model], dt: float, gyro_bias_sd: float,
-                 accel_bias_sd: float) -> None:
-        aug = augment_axes(models, dt)
+                 accel_bias_sd: float, lever_arm_sd: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+        try:
+            aug = augment_axes(models, dt)
+        except InputError:
+            # a discrete-only family (AR) re-samples at whole multiples of its sample period:
+            # snap the base step to the nearest multiple (IMU clocks drift by ppm)
+            f = min(m.freq for m in models.values())
+            dt = max(1, round(dt * f)) / f
+            try:
+                aug = augment_axes(models, dt)
+            except InputError as exc:
+                raise InputError(f"the sensor models cannot be discretised at the IMU step: {exc}"
+                                 ) from None
         blk = aug.block
         order = [aug.axes.index(a) for a in AXES]
         H = aug.H[order]
@@ -240,7 +255,6 @@ class _Sensors:
                  if sd]
         if extra:
             k = len(extra)
-            n0 = len(names)
             names += [f"{AXES[i]}.bias" for i, _ in extra]
             Phi = _bdiag(Phi, np.eye(k))
             Q = _bdiag(Q, np.zeros((k, k)))
@@ -251,7 +265,17 @@ class _Sensors:
             H = np.hstack([H, Hx])
             if F is not None:
                 F, GQG = _bdiag(F, np.zeros((k, k))), _bdiag(GQG, np.zeros((k, k)))
-            del n0
+        self.lever = None
+        if any(lever_arm_sd):
+            # the antenna lever arm as three random constants (no effect on the IMU: zero H)
+            self.lever = slice(len(names), len(names) + 3)
+            names += [f"lever_arm.{a}" for a in "xyz"]
+            Phi = _bdiag(Phi, np.eye(3))
+            Q = _bdiag(Q, np.zeros((3, 3)))
+            P0 = _bdiag(P0, np.diag(np.square(lever_arm_sd)))
+            H = np.hstack([H, np.zeros((6, 3))])
+            if F is not None:
+                F, GQG = _bdiag(F, np.zeros((3, 3))), _bdiag(GQG, np.zeros((3, 3)))
         self.names = tuple(names)
         self.n = len(names)
         self.H = H                      # (6, n): rows gyro_x..accel_z
@@ -342,12 +366,18 @@ class LooselyCoupledFilter:
         Default N, E, D position 1-sigma (m) when the GNSS record has none.
     gnss_vel_sd : float or (3,)
         Default velocity 1-sigma (m/s).
+    lever_arm_sd : float or (3,)
+        1-sigma (m, body x/y/z) of the prior `lever_arm`: nonzero adds the lever arm as three
+        constant states estimated from the GNSS updates (``NavResult.lever_arm``); 0: the lever
+        arm is taken as exact. An antenna offset that the filter ignores is read as attitude and
+        accelerometer-bias errors at every turn (see docs/navigation.md, "Real drive").
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
                  lever_arm: ArrayLike = (0.0, 0.0, 0.0), gyro_bias_sd: float = 0.0,
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
-                 gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2) -> None:
+                 gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
+                 lever_arm_sd: object = 0.0) -> None:
         self.models = _axis_models(gyro_models, accel_models)
         if not (dt_filter > 0 and math.isfinite(dt_filter)):
             raise InputError(f"dt_filter must be a positive number of seconds, got {dt_filter!r}")
@@ -364,11 +394,18 @@ class LooselyCoupledFilter:
         self.gate = gate
         self.gnss_sd = np.broadcast_to(np.asarray(gnss_sd, dtype=float), (3,)).copy()
         self.gnss_vel_sd = np.broadcast_to(np.asarray(gnss_vel_sd, dtype=float), (3,)).copy()
+        try:
+            self.lever_arm_sd = np.broadcast_to(np.asarray(lever_arm_sd, dtype=float), (3,)).copy()
+        except ValueError:
+            raise InputError(f"lever_arm_sd must be one or three numbers, got {lever_arm_sd!r}"
+                             ) from None
+        if not np.all(np.isfinite(self.lever_arm_sd)) or np.any(self.lever_arm_sd < 0):
+            raise InputError(f"lever_arm_sd must be >= 0 and finite, got {lever_arm_sd!r}")
 
     # ------------------------------------------------------------------ set-up
     def state_names(self, dt_imu: float) -> tuple[str, ...]:
         """All state names for IMU step `dt_imu`."""
-        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd)
+        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd, self.lever_arm_sd)
         return NAV_STATES + s.names
 
     def _events(self, gnss: GnssData | None, heading: object, zero_velocity: object,
@@ -453,7 +490,8 @@ class LooselyCoupledFilter:
         if i0 > j0:  # drop the interval that ends at the start epoch
             t, h, dth, dv, con, scu = t[1:], h[1:], dth[1:], dv[1:], con[1:], scu[1:]
         dt_imu = float(np.median(h))
-        sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd)
+        sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd,
+                        self.lever_arm_sd)
         events = self._events(gnss, heading, zero_velocity, outages, float(t_all[0]), t[0])
         return _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth).execute()
 
@@ -468,6 +506,7 @@ class _Run:
         self.t, self.h, self.dth, self.dv, self.con, self.scu = t, h, dth, dv, con, scu
         self.events, self.truth = events, truth
         self.n = 9 + sens.n
+        self._eye = np.eye(self.n)
         self._F = np.zeros((self.n, self.n))
         self._F[0:3, 3:6] = np.eye(3)
         self._W = np.zeros((self.n, self.n))
@@ -476,6 +515,8 @@ class _Run:
             self._W[9:, 9:] = sens.GQG
         self.P = _bdiag(init.covariance(), sens.P0)
         self.s = np.zeros(sens.n)
+        if sens.lever is not None:  # nominal value of the lever-arm states: the prior
+            self.s[sens.lever] = flt.lever_arm
         self.mech = Mechanisation(init.nav_state())
         self.corr = np.zeros(6)
         self.thresholds = {}
@@ -541,15 +582,23 @@ class _Run:
         hgt = prev[2] + lam * (mech.h - prev[2])
         v = np.array(prev[3]) + lam * (np.array(mech.v) - np.array(prev[3]))
         C = _dcm(mech.q)
-        return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in))
+        arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
+        return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
 
     def _update(self, meas: Measurement, snap: Snapshot) -> None:
         y, Hn, R = meas.evaluate(snap)
         m = y.size
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
-        PHt = self.P @ H.T
-        S = H @ PHt + R
+        Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
+        if Hl is None:
+            PHt = self.P[:, :9] @ Hn.T
+            S = Hn @ PHt[:9] + R
+        else:
+            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
+            H[:, lever] = Hl
+            PHt = self.P @ H.T
+            S = H @ PHt + R
         try:
             Si = np.linalg.inv(S)
         except np.linalg.LinAlgError:
@@ -570,7 +619,7 @@ class _Run:
             self.rejected[kind] = self.rejected.get(kind, 0) + 1
             return
         K = PHt @ Si
-        IKH = np.eye(self.n) - K @ H
+        IKH = self._eye - K @ H
         P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form (Alg. 1 lines 4-6, 8)
         self.P = 0.5 * (P + P.T)
         dx = K @ y  # Alg. 1 line 5
@@ -579,13 +628,29 @@ class _Run:
     def _feedback(self, dx: np.ndarray) -> None:
         """Correct the mechanisation and the nominal sensor errors (Alg. 2 lines 28-30)."""
         mech = self.mech
-        rn, re = earth.principal_radii(mech.lat)
-        mech.lat -= dx[0] / (rn + mech.h)
-        mech.lon -= dx[1] / ((re + mech.h) * math.cos(mech.lat))
-        mech.h += dx[2]
-        mech.v = tuple(float(a - b) for a, b in zip(mech.v, dx[3:6]))
-        q = frames.quat_multiply(frames.rotvec_to_quat(dx[6:9]), np.array(mech.q))  # eq. 26
-        mech.q = tuple(float(x) for x in frames.quat_normalize(q))
+        sl = math.sin(mech.lat)
+        w = 1.0 - earth.E2 * sl * sl
+        re = earth.A / math.sqrt(w)
+        rn = re * (1.0 - earth.E2) / w
+        d = dx[:9].tolist()
+        mech.lat -= d[0] / (rn + mech.h)
+        mech.lon -= d[1] / ((re + mech.h) * math.cos(mech.lat))
+        mech.h += d[2]
+        vn, ve, vd = mech.v
+        mech.v = (vn - d[3], ve - d[4], vd - d[5])
+        # eq. 26 in multiplicative form: q <- q(psi) * q
+        px, py, pz = d[6:9]
+        a = math.sqrt(px * px + py * py + pz * pz)
+        s = 0.5 if a < 1e-9 else math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+        r1, r2, r3 = s * px, s * py, s * pz
+        q0, q1, q2, q3 = mech.q
+        n0 = c * q0 - r1 * q1 - r2 * q2 - r3 * q3
+        n1 = c * q1 + r1 * q0 + r2 * q3 - r3 * q2
+        n2 = c * q2 - r1 * q3 + r2 * q0 + r3 * q1
+        n3 = c * q3 + r1 * q2 - r2 * q1 + r3 * q0
+        nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        mech.q = (n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm)
         if self.sens.n:
             self.s = self.s - dx[9:]
             self.corr = self.sens.H @ self.s
@@ -605,31 +670,31 @@ class _Run:
         epochs: list[tuple] = []
         epoch_rows: list[int] = []
         nav_P: list[np.ndarray] = []
-        elapsed, fsum = 0.0, [0.0, 0.0, 0.0]
+        elapsed = 0.0
         self.t_now = self.t_prev = tl[0]
         self._record(epochs, epoch_rows, nav_P, 0)
-        corr = self.corr
+        cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
+        last = len(hl) - 1
+        step = mech.step
+        mech.dv_n = [0.0, 0.0, 0.0]
         for k in range(len(hl)):
             hk = hl[k]
-            cg0, cg1, cg2, ca0, ca1, ca2 = corr.tolist()
             a_, b_ = dth[k], dv[k]
             d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
-            d_v = (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk)
-            prev = (mech.lat, mech.lon, mech.h, mech.v)
-            mech.step(hk, d_th, d_v, con[k], scu[k])
-            fn = mech.f_n
-            fsum[0] += fn[0] * hk
-            fsum[1] += fn[1] * hk
-            fsum[2] += fn[2] * hk
-            elapsed += hk
             tk = tl[k + 1]
-            self.t_prev, self.t_now = tl[k], tk
             due = ie < ne and events[ie][0] <= tk + 1e-9
-            if due or elapsed >= dtf - 1e-9 or k == len(hl) - 1:
+            if due:
+                prev = (mech.lat, mech.lon, mech.h, mech.v)
+            step(hk, d_th, (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk), con[k], scu[k])
+            elapsed += hk
+            if due or elapsed >= dtf - 1e-9 or k == last:
+                self.t_prev, self.t_now = tl[k], tk
                 m = max(1, int(round(elapsed / dt_imu)))
-                self._propagate(elapsed, m, (fsum[0] / elapsed, fsum[1] / elapsed,
-                                             fsum[2] / elapsed))
-                elapsed, fsum = 0.0, [0.0, 0.0, 0.0]
+                acc = mech.dv_n
+                self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed,
+                                             acc[2] / elapsed))
+                mech.dv_n = [0.0, 0.0, 0.0]
+                elapsed = 0.0
                 if due:
                     C = _dcm(mech.q)
                     w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
@@ -638,7 +703,7 @@ class _Run:
                         self._update(events[ie][2], self._snapshot(events[ie][0], prev, w_nb))
                         ie += 1
                     self._check_psd()
-                corr = self.corr
+                cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
                 rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
                 self._record(epochs, epoch_rows, nav_P, len(rows) - 1)
             else:
@@ -652,10 +717,14 @@ class _Run:
         nav_P.append(self.P[:9, :9].copy())
 
     def _check_psd(self) -> None:
-        d = np.diag(self.P)
-        if not np.all(np.isfinite(self.P)) or np.any(d < 0):
-            raise EstimationError(f"filter covariance lost positive definiteness at "
-                                  f"t = {self.t_now:.6g} s (diagonal {d.min():.3g})")
+        """Raise EstimationError unless the covariance is finite and positive semi-definite
+        (smallest eigenvalue above -1e-9 of the largest)."""
+        if not np.all(np.isfinite(self.P)):
+            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+        ev = np.linalg.eigvalsh(self.P)
+        if ev[0] < -1e-9 * max(ev[-1], 1e-300):
+            raise EstimationError(f"filter covariance lost positive semi-definiteness at "
+                                  f"t = {self.t_now:.6g} s (eigenvalues {ev[0]:.3g} .. {ev[-1]:.3g})")
 
     def _result(self, rows: list, epochs: list, epoch_rows: list, nav_P: list) -> NavResult:
         arr = np.array(rows)

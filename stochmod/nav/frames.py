@@ -38,6 +38,9 @@ __all__ = [
 def skew(v: ArrayLike) -> np.ndarray:
     """Cross-product matrix ``[v x]`` with ``skew(a) @ b == cross(a, b)``; shape (..., 3, 3)."""
     v = np.asarray(v, dtype=float)
+    if v.ndim == 1:  # the common case, without the stacking overhead
+        x, y, w = v.tolist()
+        return np.array([[0.0, -w, y], [w, 0.0, -x], [-y, x, 0.0]])
     z = np.zeros(v.shape[:-1])
     x, y, w = v[..., 0], v[..., 1], v[..., 2]
     return np.stack(

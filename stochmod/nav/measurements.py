@@ -32,7 +32,9 @@ class Snapshot(NamedTuple):
     """Navigation estimate at a measurement's time stamp.
 
     lat, lon (rad), height (m), vel_ned (3,), C_nb (3, 3), w_nb_b: body rate relative to the
-    NED frame (rad/s, body axes), w_in: NED-frame rate w.r.t. inertial space (rad/s)."""
+    NED frame (rad/s, body axes), w_in: NED-frame rate w.r.t. inertial space (rad/s),
+    lever_arm: the filter's current estimate of the IMU-to-antenna lever arm (body, m) when it
+    estimates it, else None (the measurement's own lever arm is used)."""
 
     lat: float
     lon: float
@@ -41,15 +43,22 @@ class Snapshot(NamedTuple):
     C_nb: np.ndarray
     w_nb_b: np.ndarray
     w_in: np.ndarray
+    lever_arm: np.ndarray | None = None
 
 
 class Measurement:
-    """Base: ``evaluate(snapshot) -> (y, H_nav, R)`` with ``H_nav`` of shape (m, 9)."""
+    """Base: ``evaluate(snapshot) -> (y, H_nav, R)`` with ``H_nav`` of shape (m, 9);
+    ``lever_arm_jacobian(snapshot)`` gives ``dy/d(lever arm)`` (m, 3), or None when the
+    measurement does not depend on the antenna lever arm."""
 
     kind = "measurement"
 
     def evaluate(self, s: Snapshot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
         raise NotImplementedError
+
+    def lever_arm_jacobian(self, s: Snapshot) -> np.ndarray | None:
+        """Jacobian of the innovation with respect to the lever-arm error (None: independent)."""
+        return None
 
 
 def _sd3(sd: object, name: str) -> np.ndarray:
@@ -76,7 +85,7 @@ class GnssPosition(Measurement):
 
     def evaluate(self, s: Snapshot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         rn, re = earth.principal_radii(s.lat)
-        arm = s.C_nb @ self.lever_arm
+        arm = s.C_nb @ (self.lever_arm if s.lever_arm is None else s.lever_arm)
         y = np.array([(s.lat - math.radians(self.lat)) * (rn + s.height),
                       (s.lon - math.radians(self.lon)) * (re + s.height) * math.cos(s.lat),
                       -(s.height - self.height)]) + arm
@@ -84,6 +93,10 @@ class GnssPosition(Measurement):
         H[:, 0:3] = np.eye(3)
         H[:, 6:9] = frames.skew(arm)  # d(C_hat l) = (C l) x psi
         return y, H, np.diag(self.sd**2)
+
+    def lever_arm_jacobian(self, s: Snapshot) -> np.ndarray:
+        """``d(C_nb l)/dl = C_nb`` (Gonzalez eq. 20i with the lever arm as a state)."""
+        return s.C_nb
 
 
 @attrs.frozen
@@ -100,12 +113,16 @@ class GnssVelocity(Measurement):
     kind = "gnss_velocity"
 
     def evaluate(self, s: Snapshot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        arm_v = s.C_nb @ np.cross(s.w_nb_b, self.lever_arm)
+        arm_v = s.C_nb @ np.cross(s.w_nb_b, self.lever_arm if s.lever_arm is None else s.lever_arm)
         y = s.vel_ned + arm_v - self.vel_ned
         H = np.zeros((3, 9))
         H[:, 3:6] = np.eye(3)
         H[:, 6:9] = frames.skew(arm_v)
         return y, H, np.diag(self.sd**2)
+
+    def lever_arm_jacobian(self, s: Snapshot) -> np.ndarray:
+        """``d(C_nb (w_nb x l))/dl = C_nb [w_nb x]`` (eq. 20h with the lever arm as a state)."""
+        return s.C_nb @ frames.skew(s.w_nb_b)
 
 
 def heading_jacobian(C_nb: np.ndarray) -> np.ndarray:

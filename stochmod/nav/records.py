@@ -12,7 +12,7 @@ import numpy as np
 from stochmod._fields import array_field
 from stochmod.errors import InputError
 
-__all__ = ["ImuData", "GnssData", "IMU_KINDS", "check_time"]
+__all__ = ["ImuData", "GnssData", "TrajectoryArrays", "IMU_KINDS", "check_time"]
 
 #: ``"rate"``: angular rate (rad/s) and specific force (m/s^2) at the time stamp;
 #: ``"increment"``: angle (rad) and velocity (m/s) increments over the interval ENDING at the stamp.
@@ -142,3 +142,34 @@ class GnssData:
         opt = {k: (None if getattr(self, k) is None else getattr(self, k)[keep])
                for k in ("vel_ned", "sd", "sd_vel")}
         return GnssData(self.time[keep], self.lat[keep], self.lon[keep], self.height[keep], **opt)
+
+
+@attrs.frozen
+class TrajectoryArrays:
+    """Navigation solution or reference sampled at `time` (the base of trajectories and results).
+
+    Attributes
+    ----------
+    time : ndarray (n,)
+        s.
+    lat, lon : ndarray (n,)
+        deg.
+    height : ndarray (n,)
+        m (ellipsoidal).
+    vel_ned : ndarray (n, 3)
+        m/s.
+    rph : ndarray (n, 3)
+        Roll, pitch, heading, deg.
+    """
+
+    time: np.ndarray = array_field()
+    lat: np.ndarray = array_field()
+    lon: np.ndarray = array_field()
+    height: np.ndarray = array_field()
+    vel_ned: np.ndarray = array_field()
+    rph: np.ndarray = array_field()
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return self.time.size

@@ -33,16 +33,16 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._fields import array_field
 from stochmod.errors import InputError
 from stochmod.nav import earth, frames
-from stochmod.nav.records import IMU_KINDS, check_time
+from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 
 __all__ = ["NavState", "Mechanisation", "StrapdownResult", "strapdown", "imu_increments"]
 
 _OM = earth.OMEGA_IE
 _A, _E2 = earth.A, earth.E2
 _G0, _G1, _G2 = earth.GRAVITY_G0, earth.GRAVITY_G1, earth.GRAVITY_G2
+_SQ1E2 = math.sqrt(1.0 - _E2)
 
 
 @attrs.define
@@ -100,7 +100,7 @@ class Mechanisation:
     corrects them in place between steps (:meth:`set_state`).
     """
 
-    __slots__ = ("q", "v", "lat", "lon", "h", "_prev", "_dtp", "f_n", "w_in")
+    __slots__ = ("q", "v", "lat", "lon", "h", "_prev", "_dtp", "dv_n", "w_in")
 
     def __init__(self, state: NavState) -> None:
         self.set_state(state)
@@ -113,7 +113,7 @@ class Mechanisation:
         self.lat, self.lon, self.h = float(state.lat), float(state.lon), float(state.height)
         self._prev = None
         self._dtp = 0.0
-        self.f_n = (0.0, 0.0, 0.0)
+        self.dv_n = [0.0, 0.0, 0.0]
         self.w_in = (0.0, 0.0, 0.0)
 
     def state(self) -> NavState:
@@ -132,89 +132,95 @@ class Mechanisation:
             Angle increment (rad) and velocity increment (m/s) in the body frame.
         con, scu : 3-sequences
             Coning (rad) and sculling (m/s) corrections of the interval.
+
+        Notes
+        -----
+        ``dv_n`` accumulates the specific-force velocity increments in NED (m/s) until the
+        caller resets it (the filter's mean specific force over its step); ``w_in`` is the
+        NED frame's rate w.r.t. inertial space at the start of the interval.
         """
         q0, q1, q2, q3 = self.q
         vn, ve, vd = self.v
         lat, h = self.lat, self.h
         # Earth model at the start of the interval: eqs. 9, 10, 11, 16
         sl, cl = math.sin(lat), math.cos(lat)
-        w = 1.0 - _E2 * sl * sl
+        s2 = sl * sl
+        w = 1.0 - _E2 * s2
         sw = math.sqrt(w)
         re = _A / sw
         rn = re * (1.0 - _E2) / w
-        g = _G0 * (1.0 + _G1 * sl * sl - _G2 * 4.0 * sl * sl * cl * cl) / (1.0 + h / math.sqrt(rn * re)) ** 2
+        g = _G0 * (1.0 + _G1 * s2 - _G2 * 4.0 * s2 * cl * cl) / (1.0 + h * sw / (re * _SQ1E2)) ** 2
         wen_n, wen_e = ve / (re + h), -vn / (rn + h)
         wen_d = -wen_n * sl / cl
-        win = (_OM * cl + wen_n, wen_e, -_OM * sl + wen_d)
+        wx, wy, wz = _OM * cl + wen_n, wen_e, -_OM * sl + wen_d
         # eq. 17c without the specific force: g - (2 w_ie + w_en) x v
-        cx, cy, cz = 2.0 * _OM * cl + wen_n, wen_e, -2.0 * _OM * sl + wen_d
-        an = (-(cy * vd - cz * ve), -(cz * vn - cx * vd), g - (cx * ve - cy * vn))
+        cx, cz = wx + _OM * cl, wz - _OM * sl
+        ax_, ay_, az_ = wy * vd - cz * ve, cz * vn - cx * vd, g - (cx * ve - wy * vn)
+        ax_ = -ax_
+        ay_ = -ay_
         prev = self._prev
+        self._prev = (wx, wy, wz, ax_, ay_, az_)
+        self.w_in = (wx, wy, wz)
         if prev is None:
-            wm, am = win, an
+            zx, zy, zz = wx * dt, wy * dt, wz * dt
+            mx, my, mz = ax_ * dt, ay_ * dt, az_ * dt
         else:  # linear extrapolation to the middle of the interval
             k = 0.5 * dt / self._dtp
-            pw, pa = prev
-            wm = tuple(a + k * (a - b) for a, b in zip(win, pw))
-            am = tuple(a + k * (a - b) for a, b in zip(an, pa))
-        self._prev = (win, an)
+            k1 = 1.0 + k
+            zx, zy, zz = (k1 * wx - k * prev[0]) * dt, (k1 * wy - k * prev[1]) * dt, (k1 * wz - k * prev[2]) * dt
+            mx, my, mz = (k1 * ax_ - k * prev[3]) * dt, (k1 * ay_ - k * prev[4]) * dt, (k1 * az_ - k * prev[5]) * dt
         self._dtp = dt
-        self.w_in = win
-        zx, zy, zz = wm[0] * dt, wm[1] * dt, wm[2] * dt
         # body velocity increment: rotation and sculling compensation
         ax, ay, az = dth
         bx, by, bz = dvb
         ux = bx + 0.5 * (ay * bz - az * by) + scu[0]
         uy = by + 0.5 * (az * bx - ax * bz) + scu[1]
         uz = bz + 0.5 * (ax * by - ay * bx) + scu[2]
-        # C_nb from q (eq. 14, scalar first)
-        c00 = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-        c01 = 2.0 * (q1 * q2 - q0 * q3)
-        c02 = 2.0 * (q1 * q3 + q0 * q2)
-        c10 = 2.0 * (q1 * q2 + q0 * q3)
-        c11 = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-        c12 = 2.0 * (q2 * q3 - q0 * q1)
-        c20 = 2.0 * (q1 * q3 - q0 * q2)
-        c21 = 2.0 * (q2 * q3 + q0 * q1)
-        c22 = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-        fx = c00 * ux + c01 * uy + c02 * uz
-        fy = c10 * ux + c11 * uy + c12 * uz
-        fz = c20 * ux + c21 * uy + c22 * uz
+        # C_nb from q (eq. 14, scalar first) applied to u
+        fx = (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * ux + 2.0 * ((q1 * q2 - q0 * q3) * uy + (q1 * q3 + q0 * q2) * uz)
+        fy = (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * uy + 2.0 * ((q1 * q2 + q0 * q3) * ux + (q2 * q3 - q0 * q1) * uz)
+        fz = (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * uz + 2.0 * ((q1 * q3 - q0 * q2) * ux + (q2 * q3 + q0 * q1) * uy)
         # navigation-frame rotation over the interval: (I - [zeta x] / 2)
         fx, fy, fz = (fx - 0.5 * (zy * fz - zz * fy), fy - 0.5 * (zz * fx - zx * fz),
                       fz - 0.5 * (zx * fy - zy * fx))
-        self.f_n = (fx / dt, fy / dt, fz / dt)
-        vn1, ve1, vd1 = vn + fx + am[0] * dt, ve + fy + am[1] * dt, vd + fz + am[2] * dt
+        acc = self.dv_n
+        acc[0] += fx
+        acc[1] += fy
+        acc[2] += fz
+        vn1, ve1, vd1 = vn + fx + mx, ve + fy + my, vd + fz + mz
         # attitude: q <- q(-zeta) * q * q(phi)   (eq. 13 as rotation vectors)
         px, py, pz = ax + con[0], ay + con[1], az + con[2]
         a2 = px * px + py * py + pz * pz
-        if a2 < 1e-12:
-            s, c = 0.5 - a2 / 48.0, 1.0 - a2 / 8.0
+        if a2 < 2.5e-3:  # |phi| < 0.05 rad: series exact to ~1e-15
+            s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+            c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0 - a2 * a2 * a2 / 46080.0
         else:
             a = math.sqrt(a2)
             s, c = math.sin(0.5 * a) / a, math.cos(0.5 * a)
-        r0, r1, r2, r3 = c, s * px, s * py, s * pz
-        t0 = q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3
-        t1 = q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2
-        t2 = q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1
-        t3 = q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0
-        z2 = zx * zx + zy * zy + zz * zz  # tiny: series is exact to double precision
-        s, c = -(0.5 - z2 / 48.0), 1.0 - z2 / 8.0
-        l0, l1, l2, l3 = c, s * zx, s * zy, s * zz
+        r1, r2, r3 = s * px, s * py, s * pz
+        t0 = q0 * c - q1 * r1 - q2 * r2 - q3 * r3
+        t1 = q0 * r1 + q1 * c + q2 * r3 - q3 * r2
+        t2 = q0 * r2 - q1 * r3 + q2 * c + q3 * r1
+        t3 = q0 * r3 + q1 * r2 - q2 * r1 + q3 * c
+        # q(-zeta): |zeta| < 1e-3 rad, so the second-order series is exact to double precision
+        l0 = 1.0 - (zx * zx + zy * zy + zz * zz) / 8.0
+        l1, l2, l3 = -0.5 * zx, -0.5 * zy, -0.5 * zz
         n0 = l0 * t0 - l1 * t1 - l2 * t2 - l3 * t3
         n1 = l0 * t1 + l1 * t0 + l2 * t3 - l3 * t2
         n2 = l0 * t2 - l1 * t3 + l2 * t0 + l3 * t1
         n3 = l0 * t3 + l1 * t2 - l2 * t1 + l3 * t0
         nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)  # eq. 13h
         self.q = (n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm)
-        # position: eq. 18 with the mean velocity of the interval
+        # position: eq. 18 with the mean velocity of the interval; the radii and cosine at the
+        # middle latitude from first-order expansions (the latitude step is < 1e-5 rad)
         h1 = h - 0.5 * (vd + vd1) * dt
         hm = 0.5 * (h + h1)
-        lat1 = lat + 0.5 * (vn + vn1) * dt / (rn + hm)
-        sm = math.sin(0.5 * (lat + lat1))
-        rem = _A / math.sqrt(1.0 - _E2 * sm * sm)
-        self.lon += 0.5 * (ve + ve1) * dt / ((rem + hm) * math.cos(0.5 * (lat + lat1)))
-        self.lat, self.h = lat1, h1
+        dlat = 0.5 * (vn + vn1) * dt / (rn + hm)
+        half = 0.5 * dlat
+        cm = cl - sl * half
+        rem = re * (1.0 + _E2 * sl * cl * half / w)
+        self.lon += 0.5 * (ve + ve1) * dt / ((rem + hm) * cm)
+        self.lat, self.h = lat + dlat, h1
         self.v = (vn1, ve1, vd1)
 
 
@@ -252,29 +258,9 @@ def imu_increments(time: np.ndarray, gyro: np.ndarray, accel: np.ndarray, kind: 
 
 
 @attrs.frozen
-class StrapdownResult:
-    """Free-inertial trajectory at the IMU time stamps.
-
-    Attributes
-    ----------
-    time : ndarray (n,)
-        s.
-    lat, lon : ndarray (n,)
-        deg.
-    height : ndarray (n,)
-        m (ellipsoidal).
-    vel_ned : ndarray (n, 3)
-        m/s.
-    rph : ndarray (n, 3)
-        Roll, pitch, heading, deg.
-    """
-
-    time: np.ndarray = array_field()
-    lat: np.ndarray = array_field()
-    lon: np.ndarray = array_field()
-    height: np.ndarray = array_field()
-    vel_ned: np.ndarray = array_field()
-    rph: np.ndarray = array_field()
+class StrapdownResult(TrajectoryArrays):
+    """Free-inertial trajectory at the IMU time stamps (time s, lat/lon deg, height m,
+    vel_ned m/s, rph deg)."""
 
 
 def _check_imu(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike

@@ -172,6 +172,10 @@ def test_ar_models_give_a_discrete_sensor_block(truth, clean_imu):
     assert len(res.state_names) == 9 + 3 * 3 + 3 + 6  # 27 states
     assert "gyro_x.AR.lag2" in res.state_names
     assert np.isfinite(res.nees).all() and res.mean_nees < 3 * 9
+    # a real IMU clock (30 ppm fast) is not a whole multiple of the AR sample period
+    t = imu.time[sel] * (1 - 3e-5)
+    res2 = flt.run(t, imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss, init=init)
+    assert np.isfinite(res2.epoch_sd).all()
 
 
 def test_series_discretisation_matches_van_loan():
@@ -223,3 +227,40 @@ def test_bad_configuration_is_refused(truth, clean_imu):
         flt.run(imu.time, imu.gyro, imu.accel, kind="increment", init=init)
     with pytest.raises(InputError, match="positive"):
         InitialState(47.0, 8.0, 500.0, [0, 0, 0], [0, 0, 0], sd_position=0.0).covariance()
+
+
+def test_a_broken_covariance_is_reported_not_hidden(truth, clean_imu, monkeypatch):
+    import stochmod.nav.filter as nf
+
+    real = nf._discretise
+
+    def broken(F, W, dt):  # a process noise with a negative eigenvalue
+        Phi, Q = real(F, W, dt)
+        return Phi, Q - np.eye(Q.shape[0]) * 10.0
+
+    monkeypatch.setattr(nf, "_discretise", broken)
+    imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
+    sel = truth.time <= 5.0
+    with pytest.raises(nf.EstimationError, match="positive semi-definiteness"):
+        _filter().run(imu.time[sel], imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss,
+                      init=init)
+
+
+def test_gnss_between_imu_samples_and_a_late_start(truth, clean_imu):
+    # fixes stamped 3.7 ms after IMU epochs (asynchronous) and a start 2 s into the record
+    imu, _, _, _ = _emulate(truth, clean_imu, 8)
+    shifted = truth.at(truth.time[truth.time <= 80.0] + 0.0037)
+    gnss = gnss_measurements(shifted, 1.0, cep=1.5, sigma_v=3.0, sigma_vel=0.05, lever_arm=ARM,
+                             rng=9)
+    assert np.allclose(gnss.time % 1.0, 0.0037)
+    s = truth.at([2.0])
+    init = InitialState(s.lat[0], s.lon[0], s.height[0], s.vel_ned[0], s.rph[0], time=2.0,
+                        sd_position=1.0, sd_velocity=0.1, sd_attitude=(0.5, 0.5, 2.0))
+    sel = truth.time <= 80.0
+    res = _filter().run(imu.time[sel], imu.gyro[sel], imu.accel[sel], kind="increment",
+                        gnss=gnss, init=init, truth=truth)
+    assert res.time[0] == pytest.approx(2.0)
+    assert res.nis["gnss_position"][0, 0] == pytest.approx(2.0037)  # first fix after the start
+    for kind in ("gnss_position", "gnss_velocity"):
+        assert 1.8 < res.nis[kind][:, 1].mean() < 4.5, kind  # chi-square(3) mean 3
+    assert res.mean_nees < chi2.ppf(0.99, 9)

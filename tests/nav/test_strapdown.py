@@ -40,7 +40,7 @@ def test_ten_minutes_at_100hz_within_centimetres():
     assert tr.time[-1] == pytest.approx(600.0)
     for kind in ("increment", "rate"):
         res = _run(tr, kind)
-        assert _pos_err(res, tr).max() < 0.03, kind
+        assert _pos_err(res, tr).max() < 0.015, kind
         assert np.abs(res.vel_ned - tr.vel_ned).max() < 1e-3, kind
         assert _att_err(res, tr).max() < 1e-6, kind
 
