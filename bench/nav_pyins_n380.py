@@ -157,11 +157,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", action="store_true", help=f"write {REFERENCE_JSON}")
     parser.add_argument("--inputs", nargs="+", default=["raw", "onavdata"],
                         choices=["raw", "onavdata"])
+    parser.add_argument("--modes", nargs="+", default=["position", "position_velocity"],
+                        choices=["position", "position_velocity"])
     args = parser.parse_args(argv)
 
     drive = load_n380()
     duration = float(drive.imu.time[-1] - drive.imu.time[0])
-    out = {"pyins_version": pyins.__version__, "dataset": SHORTNAME,
+    from importlib.metadata import version
+
+    out = {"pyins_version": pyins.__version__, "python_ins_distribution": version("python-ins"),
+           "dataset": SHORTNAME,
            "outage_starts_s_after_first_epoch": list(OUTAGE_STARTS),
            "outage_duration_s": OUTAGE_DURATION, "drive_duration_s": duration,
            "settings": {"gyro": GYRO, "accel": ACCEL, "position_sd_m": POSITION_SD,
@@ -172,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
            "runs": {}}
     for source in args.inputs:
         increments, gnss, pva0 = raw_inputs(drive) if source == "raw" else _onavdata_inputs()
-        for velocity in (False, True):
+        for velocity in [m == "position_velocity" for m in args.modes]:
             result, wall = run_pyins(increments, gnss, pva0, velocity=velocity)
             traj = result.trajectory
             errors = max_outage_errors(traj.index.to_numpy(), traj["lat"].to_numpy(),
