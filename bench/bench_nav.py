@@ -14,7 +14,7 @@ import sys
 import time
 
 from _n380 import load_n380, max_outage_errors, run_stochmod
-from nav_pyins_n380 import raw_inputs, run_pyins
+from nav_pyins_n380 import initial_error, raw_inputs, run_pyins
 
 
 def main() -> int:
@@ -22,7 +22,7 @@ def main() -> int:
     duration = float(drive.imu.time[-1] - drive.imu.time[0])
 
     t, c = time.perf_counter(), time.process_time()
-    ours = run_stochmod(drive, velocity=True)
+    ours = run_stochmod(drive, velocity=True, initial_error=initial_error())
     t_ours, c_ours = time.perf_counter() - t, time.process_time() - c
     n_states = len(ours.state_names)
 
