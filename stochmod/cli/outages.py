@@ -1,0 +1,93 @@
+"""``stochmod outages``: a GNSS-outage study on an emulated drive with the models of a
+calibration file (the step after ``stochmod calibrate``)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from stochmod.errors import InputError
+from stochmod.model import Model
+from stochmod.nav.emulate import Segment
+from stochmod.nav.logs import read_calibration
+from stochmod.nav.study import DEFAULT_OUTAGES, DEFAULT_PROFILE, outage_study
+
+__all__ = ["register", "run", "white_part"]
+
+#: --quick: a 3.5 min drive with two 30 s outages (for a first look; the default is 10 min).
+QUICK_PROFILE = (Segment(20, speed=15), Segment(15, turn=90), Segment(30, speed=20),
+                 Segment(20, turn=-120, speed=12), Segment(30), Segment(20, turn=60, speed=18),
+                 Segment(30, speed=22), Segment(15, turn=-90))
+QUICK_OUTAGES = ((60.0, 30.0), (130.0, 30.0))
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``outages`` subcommand."""
+    p = subparsers.add_parser(
+        "outages",
+        help="GNSS-outage study on an emulated drive with a calibration's models",
+        description=(
+            "Emulate --runs seeded 10-minute car drives whose IMU errors are drawn from the "
+            "models of a calibration file (columns gyro_x ... accel_z of `stochmod calibrate`'s "
+            "JSON), with 1 Hz GNSS and three 60 s outages, and navigate each with two filters "
+            "that differ only in their error model: the calibrated model, and white noise alone "
+            "(each axis's white part, or the white noise of equal level-1 wavelet variance when "
+            "the model has none). Prints per outage the mean, median and 95th percentile of the "
+            "maximum horizontal error, and each filter's average NEES."
+        ),
+    )
+    p.add_argument("--calibration", required=True, metavar="FILE",
+                   help="calibration.json written by `stochmod calibrate`")
+    p.add_argument("--runs", type=int, default=10, metavar="R",
+                   help="number of emulated drives (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the emulations (default 0)")
+    p.add_argument("--gyro-bias-sd", type=float, default=0.0, metavar="RAD_S",
+                   help="turn-on gyro bias 1-sigma drawn per run, rad/s (default 0)")
+    p.add_argument("--accel-bias-sd", type=float, default=0.0, metavar="M_S2",
+                   help="turn-on accelerometer bias 1-sigma drawn per run, m/s^2 (default 0)")
+    p.add_argument("--cep", type=float, default=2.0, metavar="M",
+                   help="GNSS horizontal CEP, m (default 2)")
+    p.add_argument("--quick", action="store_true",
+                   help="a 3.5 min drive with two 30 s outages instead of the 10 min drive")
+    p.set_defaults(func=run)
+
+
+def white_part(model: Model) -> Model:
+    """The white-noise-only model of an axis: its WN components, or the WN of equal level-1
+    Haar wavelet variance (``sigma2 = 2 nu_1^2``) when it has none; bound to ``model.freq``."""
+    import stochmod
+
+    white = [p for p in model.processes if p.family == "WN"]
+    if white:
+        return Model((stochmod.WN(sigma2=sum(p.sigma2 for p in white)),)).bind(model.freq)
+    nu1 = float(model.wv(1)[0])
+    return Model((stochmod.WN(sigma2=2.0 * nu1),)).bind(model.freq)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the study and print its table."""
+    models = read_calibration(args.calibration)
+    if args.runs < 1:
+        raise InputError(f"--runs must be at least 1, got {args.runs}")
+    for name in ("gyro_bias_sd", "accel_bias_sd", "cep"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value >= 0) or (name == "cep" and value == 0):
+            raise InputError(f"--{name.replace('_', '-')} must be a positive number, got {value!r}")
+    freqs = {m.freq for m in models.values()}
+    if len(freqs) != 1:
+        raise InputError(f"the calibration's models have different rates {sorted(freqs)} Hz; "
+                         "the emulated IMU needs one")
+    rate = freqs.pop()
+    filters = {"calibrated": models, "white noise": {a: white_part(m) for a, m in models.items()}}
+
+    def progress(r: int, name: str) -> None:
+        print(f"run {r + 1}/{args.runs}: {name}", file=sys.stderr, flush=True)
+
+    study = outage_study(filters, models, runs=args.runs, seed=args.seed,
+                         profile=QUICK_PROFILE if args.quick else DEFAULT_PROFILE,
+                         outages=QUICK_OUTAGES if args.quick else DEFAULT_OUTAGES, rate=rate,
+                         gyro_bias_sd=args.gyro_bias_sd, accel_bias_sd=args.accel_bias_sd,
+                         cep=args.cep, progress=progress)
+    print(study.summary())
+    return 0

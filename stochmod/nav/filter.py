@@ -1,0 +1,769 @@
+"""Loosely-coupled INS/GNSS error-state extended Kalman filter with feedback (closed loop).
+
+The filter follows Gonzalez et al. (2015), Algorithms 1-2 and eqs. 20-24, with the sensor-error
+part generalised as in Quinchia et al. (2013), Section 7 and Appendix (eqs. 21-33): the 9
+navigation error states (position ``dr`` NED m, velocity ``dv`` NED m/s, attitude ``psi`` rad,
+all "estimate minus truth", ``C_nb_hat = (I - [psi x]) C_nb``) are followed by sensor-error
+states assembled on demand from one stochmod model per axis (:func:`stochmod.augment_axes`):
+random walks or Gauss-Markov biases give the 15-state filter, AR(p) the 27-state one, bias + GM
+Gonzalez's 21-state UMM; any registered family works because only its state-space block is used.
+Optional turn-on biases (random constants, ``gyro_bias_sd``/``accel_bias_sd``) add 6 states
+(Gonzalez's ``b_g``, ``b_f``, eq. 20f, 24).
+
+Continuous error model (the psi-angle model of Gonzalez eq. 20k with Titterton & Weston's
+sub-matrices):
+
+- ``d(dr)/dt = dv``
+- ``d(dv)/dt = [f_n x] psi - (2 w_ie + w_en) x dv + dg(dr) - C_nb H_a ds + C_nb w_a``
+- ``d(psi)/dt = -w_in x psi + C_nb H_g ds - C_nb w_g``
+- ``d(ds)/dt = F_s ds + G_s dW`` (the models' continuous form)
+
+with ``dg = (-g/R dr_N, -g/R dr_E, 2g/R dr_D)``. The white parts of the models become the
+navigation process noise with PSD ``N^2 = white_var / freq``. Covariance propagation happens at
+the filter step ``dt_filter`` (and at measurement epochs), not at every IMU sample, with the
+transition frozen over the step and discretised exactly (Van Loan) when every sensor block has a
+continuous form. For discrete-only blocks (AR) the sensor block is composed exactly from its
+one-sample transition, the navigation block is exact (Van Loan), and the coupling uses the
+trapezoid ``dt/2 (Phi_nn F_ns + F_ns Phi_ss)``.
+
+Measurements are applied at their own time stamps (the estimate is interpolated between the two
+IMU epochs around the stamp), gated by a chi-square test on the normalised innovation, and fed
+back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
+is zero again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import attrs
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.stats import chi2
+
+from stochmod._fields import array_field
+from stochmod.errors import EstimationError, InputError, SpecError
+from stochmod.model import Model, augment_axes
+from stochmod.nav import earth, frames
+from stochmod.nav.emulate import AXES, Trajectory
+from stochmod.nav.measurements import (
+    GnssPosition,
+    GnssVelocity,
+    MagneticHeading,
+    Measurement,
+    Snapshot,
+    ZeroVelocity,
+)
+from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
+from stochmod.nav.strapdown import Mechanisation, NavState, _check_imu, imu_increments
+from stochmod.reporting import format_table
+from stochmod.statespace import ContinuousBlock, compose_steps
+
+__all__ = ["InitialState", "LooselyCoupledFilter", "NavResult", "NAV_STATES"]
+
+NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
+
+
+@attrs.frozen
+class InitialState:
+    """Initial navigation state and its 1-sigma (Gonzalez eq. 24).
+
+    Attributes
+    ----------
+    lat, lon : float
+        deg.
+    height : float
+        m.
+    vel_ned : array_like (3,)
+        m/s.
+    rph : array_like (3,)
+        Roll, pitch, heading, deg.
+    time : float or None
+        Time of the state, s (None: the first IMU time). IMU samples before it are skipped.
+    sd_position : float or (3,)
+        N, E, D 1-sigma, m.
+    sd_velocity : float or (3,)
+        m/s.
+    sd_attitude : float or (3,)
+        Roll, pitch, heading 1-sigma, deg (taken as the psi-angle sigmas).
+    """
+
+    lat: float
+    lon: float
+    height: float
+    vel_ned: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
+    rph: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
+    time: float | None = None
+    sd_position: object = 3.0
+    sd_velocity: object = 0.3
+    sd_attitude: object = (1.0, 1.0, 3.0)
+
+    def nav_state(self) -> NavState:
+        """The state as a :class:`NavState` (radians inside)."""
+        return NavState.from_degrees(lat=self.lat, lon=self.lon, height=self.height,
+                                     vel_ned=self.vel_ned, rph=self.rph)
+
+    def covariance(self) -> np.ndarray:
+        """9x9 diagonal initial covariance of the navigation error states."""
+        sd = np.concatenate([np.broadcast_to(np.asarray(v, dtype=float), (3,)) for v in
+                             (self.sd_position, self.sd_velocity,
+                              np.radians(np.asarray(self.sd_attitude, dtype=float)))])
+        if not np.all(np.isfinite(sd)) or np.any(sd <= 0):
+            raise InputError(f"initial standard deviations must be positive, got {sd}")
+        return np.diag(sd**2)
+
+
+@attrs.frozen
+class NavResult(TrajectoryArrays):
+    """Output of :meth:`LooselyCoupledFilter.run`.
+
+    Navigation arrays are at the IMU time stamps from the start time on; their 1-sigma holds the
+    value of the latest filter epoch. Per-epoch arrays (``epoch_*``) are at the filter epochs.
+
+    Attributes
+    ----------
+    time, lat, lon, height, vel_ned, rph
+        Trajectory (s, deg, deg, m, m/s (n, 3), deg (n, 3)).
+    sd_position, sd_velocity, sd_rph : ndarray (n, 3)
+        1-sigma of N/E/D position (m), velocity (m/s), and attitude error about N/E/D (deg).
+    epoch_time : ndarray (k,)
+        Filter epochs, s.
+    state_names : tuple of str
+        All filter states (9 navigation + sensor states).
+    epoch_sd : ndarray (k, n_states)
+        1-sigma of every state at each epoch (after any update).
+    sensor_states : ndarray (k, n_sensor)
+        Estimated sensor-error states (the fed-back nominal values).
+    sensor_errors : ndarray (k, 6)
+        Estimated error per axis (``gyro_x ... accel_z``; rad/s, m/s^2) without white noise.
+    innovations : dict of str to ndarray
+        Per measurement kind, rows ``(time, y...)``.
+    nis : dict of str to ndarray
+        Per measurement kind, rows ``(time, NIS, dof, accepted)``.
+    rejected : dict of str to int
+        Updates rejected by the innovation gate, per kind.
+    nees : ndarray (k,) or None
+        NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
+    """
+
+    sd_position: np.ndarray = array_field()
+    sd_velocity: np.ndarray = array_field()
+    sd_rph: np.ndarray = array_field()
+    epoch_time: np.ndarray = array_field()
+    state_names: tuple[str, ...] = ()
+    epoch_sd: np.ndarray = array_field(factory=lambda: np.zeros((0, 0)))
+    sensor_states: np.ndarray = array_field(factory=lambda: np.zeros((0, 0)))
+    sensor_errors: np.ndarray = array_field(factory=lambda: np.zeros((0, 6)))
+    innovations: dict = attrs.field(factory=dict, eq=False)
+    nis: dict = attrs.field(factory=dict, eq=False)
+    rejected: dict = attrs.field(factory=dict)
+    nees: np.ndarray | None = attrs.field(default=None, eq=False)
+    gate: float | None = None
+
+    @property
+    def lever_arm(self) -> np.ndarray | None:
+        """Estimated IMU-to-antenna lever arm (k, 3; body x/y/z, m) at the filter epochs, or None
+        when the filter did not estimate it (``lever_arm_sd`` = 0)."""
+        names = self.state_names[len(NAV_STATES):]
+        if "lever_arm.x" not in names:
+            return None
+        i = names.index("lever_arm.x")
+        return self.sensor_states[:, i:i + 3]
+
+    @property
+    def mean_nees(self) -> float | None:
+        """Average NEES over the epochs (9 for an honest filter), or None without truth."""
+        return None if self.nees is None else float(np.mean(self.nees))
+
+    def summary(self) -> str:
+        """Counts of updates, average NIS per kind, rejections, NEES and final sigmas."""
+        rows = []
+        for kind, arr in self.nis.items():
+            acc = arr[:, 3] > 0 if arr.size else np.zeros(0, bool)
+            dof = int(arr[0, 2]) if arr.size else 0
+            rows.append([kind, int(acc.sum()), self.rejected.get(kind, 0),
+                         float(arr[acc, 1].mean()) if acc.any() else float("nan"), dof])
+        lines = [format_table(["measurement", "used", "rejected", "mean NIS", "dof"], rows,
+                              title=f"Loosely-coupled filter: {len(self.state_names)} states, "
+                                    f"{self.time.size} IMU epochs, {self.epoch_time.size} filter "
+                                    f"epochs, gate {self.gate}")]
+        if self.nees is not None:
+            lo, hi = chi2.ppf([0.025, 0.975], 9)
+            lines.append(f"mean NEES (9 nav states) {self.mean_nees:.3g}; single-epoch 95% band "
+                         f"[{lo:.3g}, {hi:.3g}], {np.mean((self.nees > lo) & (self.nees < hi)):.0%}"
+                         " of epochs inside")
+        sd = self.epoch_sd[-1] if self.epoch_sd.size else np.full(len(self.state_names), np.nan)
+        lines.append(format_table(["state", "final 1-sigma"], list(zip(self.state_names, sd)),
+                                  title="Final standard deviations (m, m/s, rad, sensor units)"))
+        return "\n".join(lines)
+
+
+def _axis_models(gyro: object, accel: object) -> dict[str, Model]:
+    out: dict[str, Model] = {}
+    for prefix, m in (("gyro", gyro), ("accel", accel)):
+        if isinstance(m, Model):
+            seq = [m, m, m]
+        elif isinstance(m, Mapping):
+            try:
+                seq = [m[a] for a in "xyz"]
+            except KeyError as exc:
+                raise SpecError(f"{prefix} models need keys 'x', 'y', 'z': missing {exc}") from None
+        elif isinstance(m, Sequence) and len(m) == 3:
+            seq = list(m)
+        else:
+            raise SpecError(f"{prefix}_models must be a Model, three Models or a mapping x/y/z, "
+                            f"got {m!r}")
+        for a, mod in zip("xyz", seq):
+            if not isinstance(mod, Model):
+                raise SpecError(f"{prefix}_{a} model must be a stochmod Model, got {mod!r}")
+            if mod.freq is None:
+                raise SpecError(f"{prefix}_{a} model is not bound to a sampling frequency: "
+                                "use model.bind(freq)")
+            out[f"{prefix}_{a}"] = mod
+    return out
+
+
+class _Sensors:
+    """Sensor-error states: the stacked per-axis augmentation plus optional turn-on biases."""
+
+    def __init__(self, models: dict[str, Model], dt: float, gyro_bias_sd: float,
+                 accel_bias_sd: float, lever_arm_sd: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+        try:
+            aug = augment_axes(models, dt)
+        except InputError:
+            # a discrete-only family (AR) re-samples at whole multiples of its sample period:
+            # snap the base step to the nearest multiple (IMU clocks drift by ppm)
+            f = min(m.freq for m in models.values())
+            dt = max(1, round(dt * f)) / f
+            try:
+                aug = augment_axes(models, dt)
+            except InputError as exc:
+                raise InputError(f"the sensor models cannot be discretised at the IMU step: {exc}"
+                                 ) from None
+        blk = aug.block
+        order = [aug.axes.index(a) for a in AXES]
+        H = aug.H[order]
+        names = list(aug.state_names)
+        Phi, Q, P0 = blk.Phi, blk.Q, blk.P0
+        cont = blk.continuous if blk.n_states else ContinuousBlock(np.zeros((0, 0)),
+                                                                   np.zeros((0, 0)),
+                                                                   np.zeros((0, 0)))
+        F = None if cont is None else cont.F
+        GQG = None if cont is None else cont.G @ cont.Qc @ cont.G.T
+        extra = [(i, sd) for i, sd in enumerate([gyro_bias_sd] * 3 + [accel_bias_sd] * 3)
+                 if sd]
+        if extra:
+            k = len(extra)
+            names += [f"{AXES[i]}.bias" for i, _ in extra]
+            Phi = _bdiag(Phi, np.eye(k))
+            Q = _bdiag(Q, np.zeros((k, k)))
+            P0 = _bdiag(P0, np.diag([sd**2 for _, sd in extra]))
+            Hx = np.zeros((6, k))
+            for j, (i, _) in enumerate(extra):
+                Hx[i, j] = 1.0
+            H = np.hstack([H, Hx])
+            if F is not None:
+                F, GQG = _bdiag(F, np.zeros((k, k))), _bdiag(GQG, np.zeros((k, k)))
+        self.lever = None
+        if any(lever_arm_sd):
+            # the antenna lever arm as three random constants (no effect on the IMU: zero H)
+            self.lever = slice(len(names), len(names) + 3)
+            names += [f"lever_arm.{a}" for a in "xyz"]
+            Phi = _bdiag(Phi, np.eye(3))
+            Q = _bdiag(Q, np.zeros((3, 3)))
+            P0 = _bdiag(P0, np.diag(np.square(lever_arm_sd)))
+            H = np.hstack([H, np.zeros((6, 3))])
+            if F is not None:
+                F, GQG = _bdiag(F, np.zeros((3, 3))), _bdiag(GQG, np.zeros((3, 3)))
+        self.names = tuple(names)
+        self.n = len(names)
+        self.H = H                      # (6, n): rows gyro_x..accel_z
+        self.Phi1, self.Q1, self.P0 = Phi, Q, P0
+        self.F, self.GQG = F, GQG       # continuous form or None
+        self.dt = dt
+        freqs = np.array([models[a].freq for a in AXES])
+        self.psd = aug.white_var[order] / freqs  # two-sided PSD N^2 of the white parts
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def steps(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """Exact transition and noise over `m` base steps."""
+        if m not in self._cache:
+            self._cache[m] = compose_steps(self.Phi1, self.Q1, m)
+        return self._cache[m]
+
+
+def _skew(v: Sequence[float]) -> np.ndarray:
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _dcm(q: Sequence[float]) -> np.ndarray:
+    """C_nb of a scalar-first quaternion tuple (Gonzalez eq. 14), without numpy overhead."""
+    q0, q1, q2, q3 = q
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+
+
+def _discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact discretisation of ``dx = F x dt + dw``, ``E[dw dw'] = W dt`` over `dt`.
+
+    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` by their power series
+    (``Q = sum_k dt^(k+1)/(k+1)! L_k`` with ``L_0 = W``, ``L_k = F L_(k-1) + L_(k-1) F'``), summed
+    to double precision after scaling ``dt`` so that ``||F dt||_1 <= 1/2``; the halved steps are
+    composed back exactly (:func:`stochmod.statespace.compose_steps`). Equivalent to Van Loan's
+    method without its doubled matrix (whose size makes BLAS thread on small problems).
+    """
+    n = F.shape[0]
+    norm = float(np.abs(F).sum(axis=0).max()) * dt
+    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    h = dt / 2.0**s
+    A = F * h
+    Phi = np.eye(n) + A
+    term = A
+    L = W
+    Q = W * h
+    c = h
+    for k in range(2, 30):
+        term = term @ A / k
+        FL = F @ L
+        L = FL + FL.T
+        c = c * h / k
+        dq = c * L
+        Phi += term
+        Q += dq
+        if np.abs(term).max() <= 1e-17 and np.abs(dq).max() <= 1e-17 * max(np.abs(Q).max(), 1e-300):
+            break
+    Q = 0.5 * (Q + Q.T)
+    return compose_steps(Phi, Q, 2**s) if s else (Phi, Q)
+
+
+def _bdiag(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    n, k = a.shape[0], b.shape[0]
+    out = np.zeros((n + k, n + k))
+    out[:n, :n], out[n:, n:] = a, b
+    return out
+
+
+class LooselyCoupledFilter:
+    """Closed-loop error-state EKF for INS/GNSS (and magnetometer, zero-velocity) integration.
+
+    Parameters
+    ----------
+    gyro_models, accel_models : Model, three Models, or mapping ``x/y/z -> Model``
+        Per-axis stochastic error models bound to their sampling frequency (rad/s, m/s^2).
+    dt_filter : float
+        Covariance propagation step, s (measurements add epochs at their time stamps).
+    lever_arm : array_like (3,)
+        IMU to GNSS antenna in the body frame, m.
+    gyro_bias_sd, accel_bias_sd : float
+        Turn-on bias 1-sigma (rad/s, m/s^2): adds a random-constant state per axis; 0 for none.
+    gate : float or None
+        Probability of the chi-square innovation gate (e.g. 0.9999); None: no gating.
+    gnss_sd : float or (3,)
+        Default N, E, D position 1-sigma (m) when the GNSS record has none.
+    gnss_vel_sd : float or (3,)
+        Default velocity 1-sigma (m/s).
+    lever_arm_sd : float or (3,)
+        1-sigma (m, body x/y/z) of the prior `lever_arm`: nonzero adds the lever arm as three
+        constant states estimated from the GNSS updates (``NavResult.lever_arm``); 0: the lever
+        arm is taken as exact. An antenna offset that the filter ignores is read as attitude and
+        accelerometer-bias errors at every turn (see docs/navigation.md, "Real drive").
+    """
+
+    def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
+                 lever_arm: ArrayLike = (0.0, 0.0, 0.0), gyro_bias_sd: float = 0.0,
+                 accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
+                 gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
+                 lever_arm_sd: object = 0.0) -> None:
+        self.models = _axis_models(gyro_models, accel_models)
+        if not (dt_filter > 0 and math.isfinite(dt_filter)):
+            raise InputError(f"dt_filter must be a positive number of seconds, got {dt_filter!r}")
+        self.dt_filter = float(dt_filter)
+        self.lever_arm = np.asarray(lever_arm, dtype=float).reshape(-1)
+        if self.lever_arm.shape != (3,) or not np.all(np.isfinite(self.lever_arm)):
+            raise InputError(f"lever_arm must be three finite numbers, got {lever_arm!r}")
+        for name, v in (("gyro_bias_sd", gyro_bias_sd), ("accel_bias_sd", accel_bias_sd)):
+            if not (v >= 0 and math.isfinite(v)):
+                raise InputError(f"{name} must be >= 0, got {v!r}")
+        self.gyro_bias_sd, self.accel_bias_sd = float(gyro_bias_sd), float(accel_bias_sd)
+        if gate is not None and not 0.0 < gate < 1.0:
+            raise InputError(f"gate must be a probability in (0, 1) or None, got {gate!r}")
+        self.gate = gate
+        self.gnss_sd = np.broadcast_to(np.asarray(gnss_sd, dtype=float), (3,)).copy()
+        self.gnss_vel_sd = np.broadcast_to(np.asarray(gnss_vel_sd, dtype=float), (3,)).copy()
+        try:
+            self.lever_arm_sd = np.broadcast_to(np.asarray(lever_arm_sd, dtype=float), (3,)).copy()
+        except ValueError:
+            raise InputError(f"lever_arm_sd must be one or three numbers, got {lever_arm_sd!r}"
+                             ) from None
+        if not np.all(np.isfinite(self.lever_arm_sd)) or np.any(self.lever_arm_sd < 0):
+            raise InputError(f"lever_arm_sd must be >= 0 and finite, got {lever_arm_sd!r}")
+
+    # ------------------------------------------------------------------ set-up
+    def state_names(self, dt_imu: float) -> tuple[str, ...]:
+        """All state names for IMU step `dt_imu`."""
+        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd, self.lever_arm_sd)
+        return NAV_STATES + s.names
+
+    def _events(self, gnss: GnssData | None, heading: object, zero_velocity: object,
+                outages: Sequence[tuple[float, float]], t_first: float, t_start: float
+                ) -> list[tuple[float, int, Measurement]]:
+        ev: list[tuple[float, int, Measurement]] = []
+        arm = self.lever_arm
+        if gnss is not None:
+            if not isinstance(gnss, GnssData):
+                raise InputError(f"gnss must be a GnssData, got {type(gnss).__name__}")
+            keep = np.ones(gnss.n, bool)
+            for o in outages:
+                start, dur = o
+                if not dur > 0:
+                    raise InputError(f"outage duration must be positive, got {o!r}")
+                keep &= ~((gnss.time >= t_first + start) & (gnss.time < t_first + start + dur))
+            g = gnss.select(keep)
+            sd = g.sd if g.sd is not None else np.tile(self.gnss_sd, (g.n, 1))
+            for i in range(g.n):
+                ev.append((float(g.time[i]), 0, GnssPosition(float(g.lat[i]), float(g.lon[i]),
+                                                             float(g.height[i]), sd[i], arm)))
+                if g.vel_ned is not None:
+                    sv = g.sd_vel[i] if g.sd_vel is not None else self.gnss_vel_sd
+                    ev.append((float(g.time[i]), 1, GnssVelocity(g.vel_ned[i], sv, arm)))
+        if heading is not None:
+            t, hdg, sd = heading
+            t = check_time(t, "heading time")
+            hdg = np.asarray(hdg, dtype=float)
+            if hdg.shape != t.shape:
+                raise InputError("heading values must match their time stamps")
+            ev += [(float(a), 2, MagneticHeading(float(b), float(sd))) for a, b in zip(t, hdg)]
+        if zero_velocity is not None:
+            t, sd = zero_velocity
+            ev += [(float(a), 3, ZeroVelocity(float(sd))) for a in check_time(t, "zupt time")]
+        ev = [e for e in ev if e[0] > t_start]
+        ev.sort(key=lambda e: (e[0], e[1]))
+        return ev
+
+    # ------------------------------------------------------------------ run
+    def run(self, imu_time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, kind: str = "rate",
+            gnss: GnssData | None = None, init: InitialState | None = None,
+            outages: Sequence[tuple[float, float]] = (), truth: Trajectory | None = None,
+            heading: tuple[ArrayLike, ArrayLike, float] | None = None,
+            zero_velocity: tuple[ArrayLike, float] | None = None) -> NavResult:
+        """Run the filter over an IMU record.
+
+        Parameters
+        ----------
+        imu_time, gyro, accel, kind
+            As :func:`stochmod.nav.strapdown`.
+        gnss : GnssData, optional
+            Position (and velocity when present) fixes.
+        init : InitialState, optional
+            Start state; None: in-motion alignment from GNSS (:func:`~stochmod.nav.alignment.
+            align_from_gnss`).
+        outages : sequence of (start, duration)
+            Seconds from the first IMU time during which GNSS is withheld.
+        truth : Trajectory, optional
+            Reference for the NEES.
+        heading : (time, heading_deg, sd_deg), optional
+            Magnetic heading measurements (declination removed).
+        zero_velocity : (time, sd), optional
+            Time stamps of zero-velocity updates and their 1-sigma, m/s.
+        """
+        t_all, g_all, a_all = _check_imu(imu_time, gyro, accel)
+        if init is None:
+            if gnss is None:
+                raise InputError("without init the filter aligns from GNSS: give gnss")
+            from stochmod.nav.alignment import align_from_gnss
+
+            init = align_from_gnss(t_all, g_all, a_all, gnss, kind=kind)
+        if not isinstance(init, InitialState):
+            raise InputError(f"init must be an InitialState, got {type(init).__name__}")
+        t_start = t_all[0] if init.time is None else float(init.time)
+        i0 = int(np.searchsorted(t_all, t_start - 1e-9))
+        if i0 >= t_all.size - 1:
+            raise InputError(f"init time {t_start} leaves fewer than two IMU samples")
+        # keep one sample before the start for the increments' coning terms
+        j0 = max(i0 - 1, 0)
+        t, g, a = t_all[j0:], g_all[j0:], a_all[j0:]
+        h, dth, dv, con, scu = imu_increments(t, g, a, kind)
+        if i0 > j0:  # drop the interval that ends at the start epoch
+            t, h, dth, dv, con, scu = t[1:], h[1:], dth[1:], dv[1:], con[1:], scu[1:]
+        dt_imu = float(np.median(h))
+        sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd,
+                        self.lever_arm_sd)
+        events = self._events(gnss, heading, zero_velocity, outages, float(t_all[0]), t[0])
+        return _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth).execute()
+
+
+class _Run:
+    """One pass of the filter (keeps the loop state out of the public class)."""
+
+    def __init__(self, flt: LooselyCoupledFilter, sens: _Sensors, init: InitialState,
+                 t: np.ndarray, h: np.ndarray, dth: np.ndarray, dv: np.ndarray, con: np.ndarray,
+                 scu: np.ndarray, events: list, truth: Trajectory | None) -> None:
+        self.flt, self.sens = flt, sens
+        self.t, self.h, self.dth, self.dv, self.con, self.scu = t, h, dth, dv, con, scu
+        self.events, self.truth = events, truth
+        self.n = 9 + sens.n
+        self._eye = np.eye(self.n)
+        self._F = np.zeros((self.n, self.n))
+        self._F[0:3, 3:6] = np.eye(3)
+        self._W = np.zeros((self.n, self.n))
+        if sens.n and sens.F is not None:
+            self._F[9:, 9:] = sens.F
+            self._W[9:, 9:] = sens.GQG
+        self.P = _bdiag(init.covariance(), sens.P0)
+        self.s = np.zeros(sens.n)
+        if sens.lever is not None:  # nominal value of the lever-arm states: the prior
+            self.s[sens.lever] = flt.lever_arm
+        self.mech = Mechanisation(init.nav_state())
+        self.corr = np.zeros(6)
+        self.thresholds = {}
+        self.innov: dict[str, list] = {}
+        self.nis: dict[str, list] = {}
+        self.rejected: dict[str, int] = {}
+
+    # -------------------------------------------------------------- covariance propagation
+    def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
+        mech, sens = self.mech, self.sens
+        C = _dcm(mech.q)
+        lat, hgt = mech.lat, mech.h
+        vn, ve, vd = mech.v
+        sl, cl = math.sin(lat), math.cos(lat)
+        w = 1.0 - earth.E2 * sl * sl
+        re = earth.A / math.sqrt(w)
+        rn = re * (1.0 - earth.E2) / w
+        g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
+                                * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
+        r0 = math.sqrt(rn * re) + hgt
+        om = earth.OMEGA_IE
+        wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
+        win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
+        cor = (win[0] + om * cl, win[1], win[2] - om * sl)
+        F = self._F
+        F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
+        F[3:6, 3:6] = -_skew(cor)
+        F[3:6, 6:9] = _skew(f_n)
+        F[6:9, 6:9] = -_skew(win)
+        W = self._W
+        W[3:6, 3:6] = (C * sens.psd[3:6]) @ C.T
+        W[6:9, 6:9] = (C * sens.psd[0:3]) @ C.T
+        ns = sens.n
+        if ns:
+            F[3:6, 9:] = -C @ sens.H[3:6]
+            F[6:9, 9:] = C @ sens.H[0:3]
+        if sens.F is not None or not ns:
+            Phi, Q = _discretise(F, W, dt)
+        else:
+            Fnn = F[:9, :9]
+            Fns = F[:9, 9:]
+            Pnn, Qnn = _discretise(Fnn, W[:9, :9], dt)
+            Pss, Qss = sens.steps(m)
+            Phi = _bdiag(Pnn, Pss)
+            Phi[:9, 9:] = 0.5 * dt * (Pnn @ Fns + Fns @ Pss)
+            Q = _bdiag(Qnn, Qss)
+        P = Phi @ self.P @ Phi.T + Q
+        self.P = 0.5 * (P + P.T)  # Alg. 1 line 8
+        if ns:  # nominal sensor errors follow their mean dynamics
+            self.s = Phi[9:, 9:] @ self.s
+            self.corr = sens.H @ self.s
+        if not math.isfinite(float(self.P.sum())):
+            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+
+    # -------------------------------------------------------------- updates
+    def _snapshot(self, tm: float, prev: tuple, w_nb: np.ndarray) -> Snapshot:
+        mech = self.mech
+        t1 = self.t_now
+        t0 = self.t_prev
+        lam = 1.0 if t1 <= t0 else min(max((tm - t0) / (t1 - t0), 0.0), 1.0)
+        lat = prev[0] + lam * (mech.lat - prev[0])
+        lon = prev[1] + lam * (mech.lon - prev[1])
+        hgt = prev[2] + lam * (mech.h - prev[2])
+        v = np.array(prev[3]) + lam * (np.array(mech.v) - np.array(prev[3]))
+        C = _dcm(mech.q)
+        arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
+        return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
+
+    def _update(self, meas: Measurement, snap: Snapshot) -> None:
+        y, Hn, R = meas.evaluate(snap)
+        m = y.size
+        H = np.zeros((m, self.n))
+        H[:, :9] = Hn
+        Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
+        if Hl is None:
+            PHt = self.P[:, :9] @ Hn.T
+            S = Hn @ PHt[:9] + R
+        else:
+            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
+            H[:, lever] = Hl
+            PHt = self.P @ H.T
+            S = H @ PHt + R
+        try:
+            Si = np.linalg.inv(S)
+        except np.linalg.LinAlgError:
+            raise EstimationError(f"singular innovation covariance for {meas.kind} at "
+                                  f"t = {self.t_now:.6g} s") from None
+        nis = float(y @ Si @ y)
+        kind = meas.kind
+        gate = self.flt.gate
+        ok = True
+        if gate is not None:
+            thr = self.thresholds.get(m)
+            if thr is None:
+                thr = self.thresholds[m] = float(chi2.ppf(gate, m))
+            ok = nis <= thr
+        self.innov.setdefault(kind, []).append((self.t_meas, *y))
+        self.nis.setdefault(kind, []).append((self.t_meas, nis, m, float(ok)))
+        if not ok:
+            self.rejected[kind] = self.rejected.get(kind, 0) + 1
+            return
+        K = PHt @ Si
+        IKH = self._eye - K @ H
+        P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form (Alg. 1 lines 4-6, 8)
+        self.P = 0.5 * (P + P.T)
+        dx = K @ y  # Alg. 1 line 5
+        self._feedback(dx)
+
+    def _feedback(self, dx: np.ndarray) -> None:
+        """Correct the mechanisation and the nominal sensor errors (Alg. 2 lines 28-30)."""
+        mech = self.mech
+        sl = math.sin(mech.lat)
+        w = 1.0 - earth.E2 * sl * sl
+        re = earth.A / math.sqrt(w)
+        rn = re * (1.0 - earth.E2) / w
+        d = dx[:9].tolist()
+        mech.lat -= d[0] / (rn + mech.h)
+        mech.lon -= d[1] / ((re + mech.h) * math.cos(mech.lat))
+        mech.h += d[2]
+        vn, ve, vd = mech.v
+        mech.v = (vn - d[3], ve - d[4], vd - d[5])
+        # eq. 26 in multiplicative form: q <- q(psi) * q
+        px, py, pz = d[6:9]
+        a = math.sqrt(px * px + py * py + pz * pz)
+        s = 0.5 if a < 1e-9 else math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+        r1, r2, r3 = s * px, s * py, s * pz
+        q0, q1, q2, q3 = mech.q
+        n0 = c * q0 - r1 * q1 - r2 * q2 - r3 * q3
+        n1 = c * q1 + r1 * q0 + r2 * q3 - r3 * q2
+        n2 = c * q2 - r1 * q3 + r2 * q0 + r3 * q1
+        n3 = c * q3 + r1 * q2 - r2 * q1 + r3 * q0
+        nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        mech.q = (n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm)
+        if self.sens.n:
+            self.s = self.s - dx[9:]
+            self.corr = self.sens.H @ self.s
+
+    # -------------------------------------------------------------- loop
+    def execute(self) -> NavResult:
+        flt, sens, mech = self.flt, self.sens, self.mech
+        t, h = self.t, self.h
+        dth, dv, con, scu = (x.tolist() for x in (self.dth, self.dv, self.con, self.scu))
+        hl = h.tolist()
+        tl = t.tolist()
+        events = self.events
+        ne, ie = len(events), 0
+        dtf = flt.dt_filter
+        dt_imu = sens.dt
+        rows = [(mech.lat, mech.lon, mech.h, *mech.v, *mech.q)]
+        epochs: list[tuple] = []
+        epoch_rows: list[int] = []
+        nav_P: list[np.ndarray] = []
+        elapsed = 0.0
+        self.t_now = self.t_prev = tl[0]
+        self._record(epochs, epoch_rows, nav_P, 0)
+        cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
+        last = len(hl) - 1
+        step = mech.step
+        mech.dv_n = [0.0, 0.0, 0.0]
+        for k in range(len(hl)):
+            hk = hl[k]
+            a_, b_ = dth[k], dv[k]
+            d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
+            tk = tl[k + 1]
+            due = ie < ne and events[ie][0] <= tk + 1e-9
+            if due:
+                prev = (mech.lat, mech.lon, mech.h, mech.v)
+            step(hk, d_th, (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk), con[k], scu[k])
+            elapsed += hk
+            if due or elapsed >= dtf - 1e-9 or k == last:
+                self.t_prev, self.t_now = tl[k], tk
+                m = max(1, int(round(elapsed / dt_imu)))
+                acc = mech.dv_n
+                self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed,
+                                             acc[2] / elapsed))
+                mech.dv_n = [0.0, 0.0, 0.0]
+                elapsed = 0.0
+                if due:
+                    C = _dcm(mech.q)
+                    w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
+                    while ie < ne and events[ie][0] <= tk + 1e-9:
+                        self.t_meas = events[ie][0]
+                        self._update(events[ie][2], self._snapshot(events[ie][0], prev, w_nb))
+                        ie += 1
+                    self._check_psd()
+                cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
+                rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
+                self._record(epochs, epoch_rows, nav_P, len(rows) - 1)
+            else:
+                rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
+        return self._result(rows, epochs, epoch_rows, nav_P)
+
+    def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
+        epochs.append((self.t_now, np.sqrt(np.clip(np.diag(self.P), 0, None)), self.s.copy(),
+                       self.corr.copy()))
+        epoch_rows.append(row)
+        nav_P.append(self.P[:9, :9].copy())
+
+    def _check_psd(self) -> None:
+        """Raise EstimationError unless the covariance is finite and positive semi-definite
+        (smallest eigenvalue above -1e-9 of the largest)."""
+        if not np.all(np.isfinite(self.P)):
+            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+        ev = np.linalg.eigvalsh(self.P)
+        if ev[0] < -1e-9 * max(ev[-1], 1e-300):
+            raise EstimationError(f"filter covariance lost positive semi-definiteness at "
+                                  f"t = {self.t_now:.6g} s (eigenvalues {ev[0]:.3g} .. {ev[-1]:.3g})")
+
+    def _result(self, rows: list, epochs: list, epoch_rows: list, nav_P: list) -> NavResult:
+        arr = np.array(rows)
+        et = np.array([e[0] for e in epochs])
+        esd = np.array([e[1] for e in epochs])
+        ess = np.array([e[2] for e in epochs]).reshape(len(epochs), -1)
+        eer = np.array([e[3] for e in epochs])
+        # hold each epoch's sigma until the next epoch
+        idx = np.searchsorted(np.array(epoch_rows), np.arange(arr.shape[0]), side="right") - 1
+        sd = esd[idx]
+        nees = None
+        if self.truth is not None:
+            nees = _nees(self.truth, arr[epoch_rows], et, np.array(nav_P))
+        pack = lambda d: {k: np.array(v) for k, v in d.items()}  # noqa: E731
+        return NavResult(
+            self.t, np.degrees(arr[:, 0]), np.degrees(arr[:, 1]), arr[:, 2], arr[:, 3:6],
+            frames.quat_to_rph(arr[:, 6:10]), sd[:, 0:3], sd[:, 3:6], np.degrees(sd[:, 6:9]),
+            et, NAV_STATES + self.sens.names, esd, ess, eer, pack(self.innov), pack(self.nis),
+            dict(self.rejected), nees, self.flt.gate)
+
+
+def nav_errors(truth: Trajectory, rows: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Navigation errors (estimate minus truth) in the filter's error-state convention.
+
+    `rows` holds ``(lat rad, lon rad, h, vn, ve, vd, q0..q3)`` per time; returns (k, 9):
+    position NED m, velocity m/s, psi rad with ``C_hat = (I - [psi x]) C``.
+    """
+    tr = truth.at(times)
+    lat_t = np.radians(tr.lat)
+    rn, re = earth.principal_radii(lat_t)
+    dr = np.stack([(rows[:, 0] - lat_t) * (rn + tr.height),
+                   (rows[:, 1] - np.radians(tr.lon)) * (re + tr.height) * np.cos(lat_t),
+                   -(rows[:, 2] - tr.height)], -1)
+    dvel = rows[:, 3:6] - tr.vel_ned
+    E = frames.quat_to_dcm(rows[:, 6:10]) @ np.swapaxes(frames.rph_to_dcm(tr.rph), -1, -2)
+    psi = -frames.dcm_to_rotvec(E)
+    return np.concatenate([dr, dvel, psi], -1)
+
+
+def _nees(truth: Trajectory, rows: np.ndarray, times: np.ndarray, P: np.ndarray) -> np.ndarray:
+    e = nav_errors(truth, rows, times)
+    return np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0])

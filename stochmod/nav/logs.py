@@ -1,0 +1,256 @@
+"""Readers for the inputs of ``stochmod navigate``: an IMU CSV and a GNSS CSV.
+
+Both files have a header line; names are matched case-insensitively and surrounding spaces
+are ignored. Every problem (missing or unknown column, NaN, time not strictly increasing,
+latitude out of range, non-positive standard deviation) raises
+:class:`~stochmod.errors.InputError` naming the file, the column and the row.
+
+IMU file, one of two layouts (body x forward / y right / z down, with respect to inertial
+space)::
+
+    time, gyro_x, gyro_y, gyro_z, accel_x, accel_y, accel_z       # rates: rad/s, m/s^2
+    time, dtheta_x, dtheta_y, dtheta_z, dv_x, dv_y, dv_z          # increments: rad, m/s
+
+Increments are over the interval that ENDS at ``time``. GNSS file::
+
+    time, lat, lon, height[, vn, ve, vd][, sd_n, sd_e, sd_d]      # s, deg, deg, m, m/s, m
+
+with ellipsoidal height; velocity (NED) and the position standard deviations (NED) are used
+when present, and come as complete triples. The readers return the records the filter
+takes (:class:`stochmod.nav.records.ImuData`, :class:`~stochmod.nav.records.GnssData`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from stochmod.errors import InputError, StochmodError
+from stochmod.io import _read_csv, _unreadable_as_input_error
+from stochmod.model import Model, model_from_spec
+from stochmod.nav.emulate import AXES
+from stochmod.nav.records import GnssData, ImuData
+
+__all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "IMU_COLUMNS", "GNSS_COLUMNS"]
+
+IMU_COLUMNS: dict[str, tuple[str, ...]] = {
+    "rate": ("time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
+    "increment": ("time", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z"),
+}
+"""The two IMU layouts, by ``kind``."""
+
+GNSS_COLUMNS: dict[str, tuple[str, ...]] = {
+    "position": ("time", "lat", "lon", "height"),
+    "velocity": ("vn", "ve", "vd"),
+    "sd": ("sd_n", "sd_e", "sd_d"),
+}
+"""GNSS columns: the required position block and the optional velocity and sd triples."""
+
+
+def _read_table(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
+    """Read a headed CSV into ``{lower-case name: column}`` (NaN checked per column later)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"no such file: {path}")
+    data, names = _unreadable_as_input_error(_read_csv, path)
+    if all(name.isdigit() for name in names):
+        raise InputError(f"{path} has no header line; the first line must name the columns")
+    keys = [name.strip().lower() for name in names]
+    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    if repeated:
+        raise InputError(f"{path}: column(s) {repeated} appear more than once "
+                         "(names are case-insensitive)")
+    return path, {k: data[:, i] for i, k in enumerate(keys)}
+
+
+def _check_columns(path: Path, table: dict[str, np.ndarray], allowed: tuple[str, ...]) -> None:
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise InputError(
+            f"{path}: unknown column(s) {unknown}; the accepted columns are {list(allowed)}"
+        )
+
+
+def _column(path: Path, table: dict[str, np.ndarray], name: str) -> np.ndarray:
+    values = table[name]
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise InputError(
+            f"{path}: column {name!r} has {bad.size} non-finite value(s), the first in data row "
+            f"{bad[0] + 1} ({float(values[bad[0]])}); fill or cut the gap explicitly"
+        )
+    return values
+
+
+def _time(path: Path, table: dict[str, np.ndarray]) -> np.ndarray:
+    time = _column(path, table, "time")
+    if time.size < 2:
+        raise InputError(f"{path} has {time.size} data row(s); at least 2 are needed")
+    step = np.diff(time)
+    bad = np.flatnonzero(step <= 0)
+    if bad.size:
+        i = bad[0]
+        raise InputError(
+            f"{path}: time is not strictly increasing: data row {i + 2} has time "
+            f"{float(time[i + 1])} "
+            f"after {float(time[i])} in row {i + 1} ({bad.size} such step(s))"
+        )
+    return time
+
+
+def _triple(path: Path, table: dict[str, np.ndarray], names: tuple[str, ...], *,
+            required: bool) -> np.ndarray | None:
+    present = [n for n in names if n in table]
+    if not present and not required:
+        return None
+    missing = [n for n in names if n not in table]
+    if missing:
+        raise InputError(
+            f"{path}: missing column(s) {missing}; {list(names)} come together "
+            f"(found {present})"
+        )
+    return np.column_stack([_column(path, table, n) for n in names])
+
+
+def read_imu_csv(path: str | Path) -> ImuData:
+    """Read an IMU CSV (rates or increments, told apart by the header).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with header ``time, gyro_x, gyro_y, gyro_z, accel_x, accel_y, accel_z`` (rad/s,
+        m/s^2) or ``time, dtheta_x, dtheta_y, dtheta_z, dv_x, dv_y, dv_z`` (rad, m/s over the
+        interval ending at ``time``); case-insensitive, any column order.
+
+    Returns
+    -------
+    ImuData
+
+    Raises
+    ------
+    InputError
+        No header, a mix of the two layouts, missing or unknown columns, NaN/inf, time not
+        strictly increasing, fewer than two rows.
+    """
+    path, table = _read_table(path)
+    kinds = [k for k, cols in IMU_COLUMNS.items() if any(c in table for c in cols[1:])]
+    if len(kinds) != 1:
+        raise InputError(
+            f"{path}: the header must name either {list(IMU_COLUMNS['rate'])} (rates) or "
+            f"{list(IMU_COLUMNS['increment'])} (increments); found {list(table)}"
+        )
+    kind = kinds[0]
+    cols = IMU_COLUMNS[kind]
+    _check_columns(path, table, cols)
+    if "time" not in table:
+        raise InputError(f"{path}: missing column 'time'")
+    time = _time(path, table)
+    gyro = _triple(path, table, cols[1:4], required=True)
+    accel = _triple(path, table, cols[4:7], required=True)
+    return ImuData(time=time, gyro=gyro, accel=accel, kind=kind)  # type: ignore[arg-type]
+
+
+def read_gnss_csv(path: str | Path) -> GnssData:
+    """Read a GNSS CSV of position fixes with optional velocity and standard deviations.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with header ``time, lat, lon, height`` (s, deg, deg, m ellipsoidal), optionally
+        ``vn, ve, vd`` (m/s) and ``sd_n, sd_e, sd_d`` (m); case-insensitive, any order.
+
+    Returns
+    -------
+    GnssData
+
+    Raises
+    ------
+    InputError
+        No header, missing or unknown columns, an incomplete triple, NaN/inf, time not strictly
+        increasing, latitude outside [-90, 90] deg, a standard deviation that is not positive.
+    """
+    path, table = _read_table(path)
+    allowed = GNSS_COLUMNS["position"] + GNSS_COLUMNS["velocity"] + GNSS_COLUMNS["sd"]
+    _check_columns(path, table, allowed)
+    missing = [c for c in GNSS_COLUMNS["position"] if c not in table]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {missing}; found {list(table)}")
+    time = _time(path, table)
+    lat = _column(path, table, "lat")
+    outside = np.flatnonzero(np.abs(lat) > 90.0)
+    if outside.size:
+        raise InputError(
+            f"{path}: lat must be in [-90, 90] deg; data row {outside[0] + 1} has "
+            f"{float(lat[outside[0]])}"
+        )
+    lon = _column(path, table, "lon")
+    height = _column(path, table, "height")
+    vel = _triple(path, table, GNSS_COLUMNS["velocity"], required=False)
+    sd = _triple(path, table, GNSS_COLUMNS["sd"], required=False)
+    if sd is not None and np.any(sd <= 0):
+        row, col = np.argwhere(sd <= 0)[0]
+        raise InputError(
+            f"{path}: {GNSS_COLUMNS['sd'][col]} must be positive (m); data row {row + 1} has "
+            f"{float(sd[row, col])}"
+        )
+    return GnssData(time=time, lat=lat, lon=lon, height=height, vel_ned=vel, sd=sd)
+
+
+def read_calibration(path: str | Path) -> dict[str, Model]:
+    """Per-axis error models from the ``calibration.json`` that ``stochmod calibrate`` writes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file; its ``columns`` named ``gyro_x ... accel_z`` (case-insensitive) give
+        each axis's ``model`` spec (rad/s and m/s^2 units), bound to the spec's ``freq`` or the
+        file's ``freq``.
+
+    Returns
+    -------
+    dict of str to Model
+        Keys ``gyro_x ... accel_z``.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, missing axes, an axis given twice, a model that cannot be
+        built (the message names the axis).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"no such calibration file: {path}")
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path} is not a JSON file: {exc}") from None
+    columns = data.get("columns") if isinstance(data, dict) else None
+    if not isinstance(columns, dict):
+        raise InputError(f"{path} has no 'columns' object; write it with `stochmod calibrate`")
+    by_axis: dict[str, dict] = {}
+    for name, entry in columns.items():
+        key = str(name).strip().lower()
+        if key in by_axis:
+            raise InputError(f"{path}: axis {key!r} appears more than once (case-insensitive)")
+        by_axis[key] = entry
+    missing = [a for a in AXES if a not in by_axis]
+    if missing:
+        raise InputError(f"{path}: calibration has no column(s) {missing}; the navigation "
+                         f"filter needs a model for each of {list(AXES)}")
+    models = {}
+    for axis in AXES:
+        entry = by_axis[axis]
+        spec = entry.get("model") if isinstance(entry, dict) else None
+        if spec is None:
+            raise InputError(f"{path}: column {axis!r} has no 'model'")
+        freq = spec.get("freq", data.get("freq")) if isinstance(spec, dict) else data.get("freq")
+        try:
+            model = model_from_spec(spec, freq)
+        except StochmodError as exc:
+            raise InputError(f"{path}: the model of {axis!r} cannot be built: {exc}") from None
+        if model.freq is None:
+            raise InputError(f"{path}: the model of {axis!r} has no sampling frequency ('freq')")
+        models[axis] = model
+    return models

@@ -1,0 +1,147 @@
+"""``stochmod navigate`` and ``stochmod outages`` end to end on emulated recordings written as the
+CLI's CSV inputs: outputs, accuracy against the emulation's truth, the calibration file, errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import stochmod
+from stochmod.cli import main
+from stochmod.cli.navigate import TRAJECTORY_COLUMNS
+from stochmod.nav import Segment, add_sensor_errors, gnss_measurements, ideal_imu
+from stochmod.nav import trajectory_from_profile
+from stochmod.nav.emulate import AXES
+from stochmod.nav.logs import read_calibration
+from stochmod.nav.study import horizontal_error
+
+FS = 50.0
+GYRO = (stochmod.WN.from_density(3e-4, FS) + stochmod.RW.from_rrw(1e-5, FS)).bind(FS)
+ACCEL = (stochmod.WN.from_density(2e-3, FS) + stochmod.RW.from_rrw(1e-4, FS)).bind(FS)
+MODELS = {a: GYRO if a.startswith("gyro") else ACCEL for a in AXES}
+PROFILE = [Segment(10, speed=12), Segment(10, turn=90), Segment(15, speed=18),
+           Segment(10, turn=-60), Segment(15)]
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    """An emulated 60 s drive written as navigate's CSVs, with its truth."""
+    truth = trajectory_from_profile(PROFILE, rate=FS, lat=46.5, lon=6.6, height=400.0,
+                                    heading=20.0, speed=5.0)
+    imu = add_sensor_errors(ideal_imu(truth, "rate"), MODELS, 5)
+    gnss = gnss_measurements(truth, 1.0, sigma_h=1.0, sigma_v=2.0, sigma_vel=0.1, rng=6)
+    folder = tmp_path_factory.mktemp("drive")
+    np.savetxt(folder / "imu.csv", np.column_stack([imu.time, imu.gyro, imu.accel]),
+               delimiter=",", fmt="%.17g", comments="",
+               header="Time,Gyro_X,gyro_y,gyro_z,accel_x,accel_y,accel_z")
+    np.savetxt(folder / "gnss.csv",
+               np.column_stack([gnss.time, gnss.lat, gnss.lon, gnss.height, gnss.vel_ned,
+                                gnss.sd]), delimiter=",", fmt="%.17g", comments="",
+               header="time,lat,lon,height,vn,ve,vd,sd_n,sd_e,sd_d")
+    calibration = {"freq": FS, "columns": {a.upper(): {"model": m.to_spec()}
+                                           for a, m in MODELS.items()}}
+    (folder / "calibration.json").write_text(json.dumps(calibration))
+    return folder, truth
+
+
+def _init_text(truth) -> str:
+    first = truth.at(truth.time[:1])
+    values = [first.lat[0], first.lon[0], first.height[0], *first.vel_ned[0], *first.rph[0]]
+    return ",".join(f"{v:.12f}" for v in values)
+
+
+def test_navigate_writes_an_accurate_trajectory(recording, tmp_path, capsys) -> None:
+    folder, truth = recording
+    out = tmp_path / "out"
+    code = main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out", str(out),
+                 "--calibration", str(folder / "calibration.json"), "--init", _init_text(truth),
+                 "--gyro-bias-sd", "1e-4", "--accel-bias-sd", "0.01", "--outage", "30", "15",
+                 "--no-plots"])
+    assert code == 0
+    assert "gnss_position" in capsys.readouterr().out
+    header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert header == list(TRAJECTORY_COLUMNS) + [f"sd_{c}" for c in TRAJECTORY_COLUMNS[1:]]
+    table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, 0], truth.time, rtol=1e-12)
+    err = horizontal_error(truth, table[:, 0], table[:, 1], table[:, 2])
+    sd_h = np.hypot(table[:, 11], table[:, 12])
+    assert np.median(err) < 2.0  # m, GNSS at 1 m
+    assert np.mean(err < 3 * sd_h + 0.5) > 0.95  # the reported 1-sigma covers the error
+    in_outage = (table[:, 0] - truth.time[0] > 30) & (table[:, 0] - truth.time[0] < 45)
+    assert sd_h[in_outage].max() > 2 * np.median(sd_h)  # uncertainty grows without GNSS
+    report = (out / "report.txt").read_text()
+    assert "calibration.json" in report and "(30.0, 15.0)" in report
+
+
+def test_navigate_aligns_itself_and_plots(recording, tmp_path) -> None:
+    pytest.importorskip("matplotlib")
+    folder, truth = recording
+    out = tmp_path / "out"
+    assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(out), "--gyro-bias-sd", "1e-4", "--accel-bias-sd", "0.01"]) == 0
+    assert (out / "map.png").stat().st_size > 0 and (out / "sigma.png").stat().st_size > 0
+    table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    late = table[:, 0] > truth.time[0] + 30
+    assert np.median(horizontal_error(truth, table[late, 0], table[late, 1],
+                                      table[late, 2])) < 3.0
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--init", "1,2,3"], "--init needs 9"),
+        (["--init", "a,b"], "--init must be 9"),
+        (["--gyro-bias-sd", "-1"], "--gyro-bias-sd must be"),
+        (["--outage", "10", "0"], "DURATION must be positive"),
+        (["--calibration", "absent.json"], "no such calibration file"),
+    ],
+)
+def test_navigate_bad_arguments(recording, tmp_path, capsys, extra, message) -> None:
+    folder, _ = recording
+    code = main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(tmp_path / "o"), "--no-plots", *extra])
+    assert code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
+    folder, _ = recording
+    models = read_calibration(folder / "calibration.json")
+    assert set(models) == set(AXES)
+    for axis in AXES:
+        assert models[axis] == MODELS[axis]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"freq": FS, "columns": {"gyro_x": {"model": GYRO.to_spec()}}}))
+    with pytest.raises(stochmod.errors.InputError, match=r"no column\(s\) \['gyro_y'"):
+        read_calibration(bad)
+    bad.write_text("{not json")
+    with pytest.raises(stochmod.errors.InputError, match="not a JSON file"):
+        read_calibration(bad)
+
+
+@pytest.mark.slow
+def test_outages_cli_quick(recording, capsys) -> None:
+    folder, _ = recording
+    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
+                 "--quick", "--gyro-bias-sd", "1e-4"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "60+30 s" in out and "130+30 s" in out
+    assert "calibrated" in out and "white noise" in out and "mean NEES" in out
+    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs",
+                 "0"]) == 2
+
+
+def test_white_part() -> None:
+    from stochmod.cli.outages import white_part
+
+    two = (stochmod.WN(sigma2=1e-4) + stochmod.WN(sigma2=3e-4)
+           + stochmod.GM.from_correlation_time(10.0, 1e-2)).bind(FS)
+    assert white_part(two).processes[0].sigma2 == pytest.approx(4e-4)
+    gm = stochmod.Model((stochmod.GM.from_correlation_time(10.0, 1e-2),)).bind(FS)
+    white = white_part(gm)
+    # the substitute white noise has the GM's level-1 wavelet variance (WN's own formula)
+    assert float(white.wv(1)[0]) == pytest.approx(float(gm.wv(1)[0]), rel=1e-12)
+    assert [p.family for p in white.processes] == ["WN"] and white.freq == FS
