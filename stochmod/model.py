@@ -25,7 +25,7 @@ from scipy.linalg import block_diag
 
 from stochmod._validation import check_freq, check_positive_int
 from stochmod.errors import InputError, SpecError
-from stochmod.process import Process, as_generator
+from stochmod.process import Process, as_generator, psd_of
 from stochmod.registry import get_process
 from stochmod.reporting import format_table
 from stochmod.statespace import StateSpaceBlock, stack_blocks
@@ -239,7 +239,7 @@ class Model:
         """Two-sided PSD of the sum, unit^2/Hz, at `f` Hz."""
         freq = self._freq()
         f = np.asarray(f, dtype=np.float64)
-        return np.sum([p.psd(f, freq) for p in self.processes], axis=0)
+        return np.sum([psd_of(p, f, freq) for p in self.processes], axis=0)
 
     def autocovariance(self, lags: ArrayLike) -> np.ndarray:
         """Autocovariance of the sum at integer `lags` (all components must be stationary)."""

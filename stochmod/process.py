@@ -33,7 +33,8 @@ from stochmod.params import SCALE_POWERS, Parameter, get_domain
 from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
-__all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "has_theoretical_wv"]
+__all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "declares_psd", "psd_of",
+           "has_theoretical_wv"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -315,7 +316,7 @@ class Process(abc.ABC):
         freq = check_freq(freq)
         if wavelet == "haar" and self.stationary and _overrides(type(self), "autocovariance"):
             return wv_from_autocovariance(lambda lags: self.autocovariance(lags, freq), levels)
-        return wv_from_psd(lambda f: self.psd(f, freq), levels, freq, wavelet=wavelet,
+        return wv_from_psd(lambda f: psd_of(self, f, freq), levels, freq, wavelet=wavelet,
                            breakpoints=self.psd_breakpoints(freq))
 
     def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
@@ -352,9 +353,14 @@ class Process(abc.ABC):
                 cols.append((up.wv(levels, freq) - self.wv(levels, freq)) / h)
         return np.column_stack(cols) if cols else np.zeros((levels, 0))
 
+    @abc.abstractmethod
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
-        """Two-sided PSD of the sampled process, signal unit^2/Hz, at `f` Hz in (-freq/2, freq/2]."""
-        raise NotImplementedError(f"{self.family} does not declare a PSD")
+        """Two-sided PSD of the sampled process, signal unit^2/Hz, at `f` Hz in (-freq/2, freq/2].
+
+        Every family declares it. A family whose spectrum cannot be stated (fitted by
+        simulation only, ``stochmod.gmwm(..., binding="simulated")``) declares ``psd = None``
+        in its class body; :func:`declares_psd` tells which, and :func:`psd_of` evaluates it.
+        """
 
     def psd_breakpoints(self, freq: float) -> tuple[float, ...]:
         """Frequencies (Hz) where the PSD has a kink or jump (quadrature splits there)."""
@@ -480,6 +486,26 @@ def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
 
 
+def declares_psd(process: Process | type[Process]) -> bool:
+    """Whether the family states its PSD (it did not declare ``psd = None``)."""
+    cls = process if isinstance(process, type) else type(process)
+    return cls.psd is not None
+
+
+def psd_of(process: Process, f: ArrayLike, freq: float) -> np.ndarray:
+    """``process.psd(f, freq)``, signal unit^2/Hz.
+
+    Raises
+    ------
+    NotImplementedError
+        The family declares no PSD (``psd = None``: it is fitted by simulation only).
+    """
+    if not declares_psd(process):
+        raise NotImplementedError(f"{process.family} declares no PSD (psd = None: its theory "
+                                  "comes from simulation, binding='simulated')")
+    return process.psd(f, freq)
+
+
 @functools.lru_cache(maxsize=None)
 def declares_block(cls: type[Process]) -> bool:
     """Whether the family declares its state-space block: it overrides
@@ -491,10 +517,11 @@ def declares_block(cls: type[Process]) -> bool:
 
 def has_theoretical_wv(process: Process | type[Process]) -> bool:
     """Whether the family has a theoretical wavelet variance: it overrides :meth:`Process.wv`,
-    or :meth:`Process.psd`, or (stationary) :meth:`Process.autocovariance`. Families without
-    one are fitted by indirect inference (``stochmod.gmwm(..., binding="simulated")``)."""
+    or declares its PSD (:func:`declares_psd`), or (stationary) overrides
+    :meth:`Process.autocovariance`. Families without one are fitted by indirect inference
+    (``stochmod.gmwm(..., binding="simulated")``)."""
     cls = process if isinstance(process, type) else type(process)
-    return (_overrides(cls, "wv") or _overrides(cls, "psd")
+    return (_overrides(cls, "wv") or declares_psd(cls)
             or (bool(cls.stationary) and _overrides(cls, "autocovariance")))
 
 

@@ -81,7 +81,7 @@ from stochmod.coefficients import COEFFICIENTS
 from stochmod.combiner_checks import check_combiner
 from stochmod.errors import DomainError, InputError
 from stochmod.params import ROLES, get_domain, pacf_to_ar
-from stochmod.process import Process, as_generator, simulate_block
+from stochmod.process import Process, as_generator, declares_psd, simulate_block
 from stochmod.reporting import format_number, format_table
 from stochmod.statespace import StateSpaceBlock, compose_steps
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
@@ -495,10 +495,9 @@ def _variance(p: Process, freq: float) -> float:
 
 
 def _psd_or_skip(p: Process, f: np.ndarray, freq: float) -> np.ndarray:
-    try:
-        return np.asarray(p.psd(f, freq), dtype=float)
-    except NotImplementedError as exc:
-        raise NotApplicable(f"{p.family} declares no PSD ({exc})") from None
+    if not declares_psd(p):
+        raise NotApplicable(f"{p.family} declares no PSD (psd = None)")
+    return np.asarray(p.psd(f, freq), dtype=float)
 
 
 def check_psd_integral(process: Process | type[Process], freq: float = 100.0, *, rng: RngLike = 0,

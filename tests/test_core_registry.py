@@ -8,6 +8,7 @@ import sys
 from typing import ClassVar
 
 import attrs
+import numpy as np
 import pytest
 
 import stochmod
@@ -31,6 +32,9 @@ class Toy(Process):
 
     def white_variance(self, freq):
         return float(self.a)
+
+    def psd(self, f, freq):  # white: the variance spread evenly over (-freq/2, freq/2]
+        return np.full(np.shape(f), float(self.a) / freq)
 
     def start(self, wv, freq, *, index=0, count=1, rng=None):
         return self.with_values(a=2.0 * float(wv[0]))

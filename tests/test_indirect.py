@@ -28,7 +28,7 @@ class SimWN(WN):
     family = "SimWN"
     wv = Process.wv
     wv_jacobian = Process.wv_jacobian
-    psd = Process.psd
+    psd = None  # declares no PSD: its theory comes from simulation
     autocovariance = Process.autocovariance
 
 
@@ -39,7 +39,7 @@ class AcvfOnlyNonStationary(WN):
     family = "AcvfOnly"
     stationary = False
     wv = Process.wv
-    psd = Process.psd
+    psd = None  # declares no PSD: its theory comes from simulation
 
 
 def _within_mc_error(sim, an):

@@ -218,7 +218,7 @@ def test_model_without_theoretical_wv_uses_the_mean_of_simulations(gm_wn):
         family = "SimWN"
         wv = stochmod.Process.wv
         wv_jacobian = stochmod.Process.wv_jacobian
-        psd = stochmod.Process.psd
+        psd = None  # declares no PSD
         autocovariance = stochmod.Process.autocovariance
 
     model = stochmod.Model((SimOnlyWN(sigma2=2e-4),), FREQ)

@@ -15,7 +15,7 @@ from stochmod import registry
 from stochmod._validation import check_positive_int
 from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.model import Model
-from stochmod.process import as_generator
+from stochmod.process import as_generator, psd_of
 from stochmod.signal.wavelet_variance import WaveletVariance, wvar
 from stochmod.signal.wv_covariance import wv_covariance
 from stochmod.theory import wv_covariance_from_psd
@@ -241,7 +241,7 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar", *,
     if spectral:
         breakpoints = sorted({b for p in spectral for b in p.psd_breakpoints(freq)})
         total += wv_covariance_from_psd(
-            lambda f: np.sum([p.psd(f, freq) for p in spectral], axis=0), n_coef, freq,
+            lambda f: np.sum([psd_of(p, f, freq) for p in spectral], axis=0), n_coef, freq,
             wavelet=wavelet, breakpoints=breakpoints)
     if variance_ratio is not None:
         ratio = np.sqrt(np.asarray(variance_ratio, dtype=np.float64))

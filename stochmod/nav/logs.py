@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from stochmod.errors import InputError, StochmodError
-from stochmod.io import _read_csv, _unreadable_as_input_error
 from stochmod.model import Model, model_from_spec
 from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
+from stochmod.registry import readers
 
 __all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "IMU_COLUMNS", "GNSS_COLUMNS"]
 
@@ -50,19 +50,23 @@ GNSS_COLUMNS: dict[str, tuple[str, ...]] = {
 
 
 def _read_table(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
-    """Read a headed CSV into ``{lower-case name: column}`` (NaN checked per column later)."""
+    """Read a headed CSV into ``{lower-case name: column}`` (NaN checked per column later),
+    through the registered ``csv`` reader (the time column is the one it finds by name)."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"no such file: {path}")
-    data, names = _unreadable_as_input_error(_read_csv, path)
-    if all(name.isdigit() for name in names):
+    rec = readers()["csv"].read(path)
+    if all(name.isdigit() for name in rec.columns):
         raise InputError(f"{path} has no header line; the first line must name the columns")
-    keys = [name.strip().lower() for name in names]
-    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    keys = [name.strip().lower() for name in rec.columns]
+    repeated = sorted({k for k in keys if keys.count(k) > 1 or k == "time"})
     if repeated:
         raise InputError(f"{path}: column(s) {repeated} appear more than once "
                          "(names are case-insensitive)")
-    return path, {k: data[:, i] for i, k in enumerate(keys)}
+    table = {k: rec.data[:, i] for i, k in enumerate(keys)}
+    if rec.time is not None:
+        table = {"time": rec.time + rec.time_origin, **table}
+    return path, table
 
 
 def _check_columns(path: Path, table: dict[str, np.ndarray], allowed: tuple[str, ...]) -> None:

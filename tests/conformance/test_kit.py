@@ -345,6 +345,9 @@ class AllDomains(Process):
     def white_variance(self, freq):
         return 1.0
 
+    def psd(self, f, freq):
+        return np.full(np.shape(f), 1.0 / freq)
+
     def start(self, wv, freq, *, index=0, count=1, rng=None):
         return self
 
