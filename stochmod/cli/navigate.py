@@ -11,7 +11,8 @@ import numpy as np
 
 from stochmod.errors import InputError
 from stochmod.model import Model
-from stochmod.nav.filter import InitialState, LooselyCoupledFilter, NavResult
+from stochmod.nav.alignment import InitialState
+from stochmod.nav.filter import LooselyCoupledFilter, NavResult
 from stochmod.nav.logs import read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
 

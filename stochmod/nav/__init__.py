@@ -19,8 +19,8 @@ from stochmod.nav.emulate import (
     magnetometer_heading,
     trajectory_from_profile,
 )
-from stochmod.nav.alignment import align_from_gnss, level, static_alignment
-from stochmod.nav.filter import InitialState, LooselyCoupledFilter, NavResult
+from stochmod.nav.alignment import InitialState, align_from_gnss, level, static_alignment
+from stochmod.nav.filter import LooselyCoupledFilter, NavResult
 from stochmod.nav.measurements import GnssPosition, GnssVelocity, MagneticHeading, ZeroVelocity
 from stochmod.nav.records import GnssData, ImuData
 from stochmod.nav.strapdown import Mechanisation, NavState, StrapdownResult, strapdown

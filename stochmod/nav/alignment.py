@@ -11,15 +11,64 @@ from __future__ import annotations
 
 import math
 
+import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.errors import InputError
-from stochmod.nav.filter import InitialState
 from stochmod.nav.records import GnssData
-from stochmod.nav.strapdown import _check_imu
+from stochmod.nav.strapdown import NavState, check_imu
 
-__all__ = ["level", "static_alignment", "align_from_gnss"]
+__all__ = ["InitialState", "level", "static_alignment", "align_from_gnss"]
+
+
+@attrs.frozen
+class InitialState:
+    """Initial navigation state and its 1-sigma (Gonzalez eq. 24).
+
+    Attributes
+    ----------
+    lat, lon : float
+        deg.
+    height : float
+        m.
+    vel_ned : array_like (3,)
+        m/s.
+    rph : array_like (3,)
+        Roll, pitch, heading, deg.
+    time : float or None
+        Time of the state, s (None: the first IMU time). IMU samples before it are skipped.
+    sd_position : float or (3,)
+        N, E, D 1-sigma, m.
+    sd_velocity : float or (3,)
+        m/s.
+    sd_attitude : float or (3,)
+        Roll, pitch, heading 1-sigma, deg (taken as the psi-angle sigmas).
+    """
+
+    lat: float
+    lon: float
+    height: float
+    vel_ned: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
+    rph: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
+    time: float | None = None
+    sd_position: object = 3.0
+    sd_velocity: object = 0.3
+    sd_attitude: object = (1.0, 1.0, 3.0)
+
+    def nav_state(self) -> NavState:
+        """The state as a :class:`NavState` (radians inside)."""
+        return NavState.from_degrees(lat=self.lat, lon=self.lon, height=self.height,
+                                     vel_ned=self.vel_ned, rph=self.rph)
+
+    def covariance(self) -> np.ndarray:
+        """9x9 diagonal initial covariance of the navigation error states."""
+        sd = np.concatenate([np.broadcast_to(np.asarray(v, dtype=float), (3,)) for v in
+                             (self.sd_position, self.sd_velocity,
+                              np.radians(np.asarray(self.sd_attitude, dtype=float)))])
+        if not np.all(np.isfinite(sd)) or np.any(sd <= 0):
+            raise InputError(f"initial standard deviations must be positive, got {sd}")
+        return np.diag(sd**2)
 
 
 def _mean_specific_force(time: np.ndarray, accel: np.ndarray, kind: str) -> np.ndarray:
@@ -70,7 +119,7 @@ def static_alignment(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat:
     InitialState
         At the last time stamp, zero velocity.
     """
-    t, _, a = _check_imu(time, gyro, accel)
+    t, _, a = check_imu(time, gyro, accel)
     roll, pitch = level(_mean_specific_force(t, a, kind))
     if heading is None:
         if mag is None:
@@ -96,7 +145,7 @@ def align_from_gnss(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, gnss: Gn
     none), heading from the course, pitch from the climb angle, roll from the accelerometers
     averaged over `window` seconds before the fix.
     """
-    t, _, a = _check_imu(time, gyro, accel)
+    t, _, a = check_imu(time, gyro, accel)
     if gnss.n < 2:
         raise InputError("GNSS alignment needs at least two fixes")
     if gnss.vel_ned is not None:

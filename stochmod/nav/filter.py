@@ -56,62 +56,14 @@ from stochmod.nav.measurements import (
     ZeroVelocity,
 )
 from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
-from stochmod.nav.strapdown import Mechanisation, NavState, _check_imu, imu_increments
+from stochmod.nav.alignment import InitialState, align_from_gnss
+from stochmod.nav.strapdown import Mechanisation, NavState, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
-__all__ = ["InitialState", "LooselyCoupledFilter", "NavResult", "NAV_STATES"]
+__all__ = ["LooselyCoupledFilter", "NavResult", "NAV_STATES"]
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
-
-
-@attrs.frozen
-class InitialState:
-    """Initial navigation state and its 1-sigma (Gonzalez eq. 24).
-
-    Attributes
-    ----------
-    lat, lon : float
-        deg.
-    height : float
-        m.
-    vel_ned : array_like (3,)
-        m/s.
-    rph : array_like (3,)
-        Roll, pitch, heading, deg.
-    time : float or None
-        Time of the state, s (None: the first IMU time). IMU samples before it are skipped.
-    sd_position : float or (3,)
-        N, E, D 1-sigma, m.
-    sd_velocity : float or (3,)
-        m/s.
-    sd_attitude : float or (3,)
-        Roll, pitch, heading 1-sigma, deg (taken as the psi-angle sigmas).
-    """
-
-    lat: float
-    lon: float
-    height: float
-    vel_ned: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
-    rph: np.ndarray = attrs.field(converter=lambda v: np.asarray(v, dtype=float))
-    time: float | None = None
-    sd_position: object = 3.0
-    sd_velocity: object = 0.3
-    sd_attitude: object = (1.0, 1.0, 3.0)
-
-    def nav_state(self) -> NavState:
-        """The state as a :class:`NavState` (radians inside)."""
-        return NavState.from_degrees(lat=self.lat, lon=self.lon, height=self.height,
-                                     vel_ned=self.vel_ned, rph=self.rph)
-
-    def covariance(self) -> np.ndarray:
-        """9x9 diagonal initial covariance of the navigation error states."""
-        sd = np.concatenate([np.broadcast_to(np.asarray(v, dtype=float), (3,)) for v in
-                             (self.sd_position, self.sd_velocity,
-                              np.radians(np.asarray(self.sd_attitude, dtype=float)))])
-        if not np.all(np.isfinite(sd)) or np.any(sd <= 0):
-            raise InputError(f"initial standard deviations must be positive, got {sd}")
-        return np.diag(sd**2)
 
 
 @attrs.frozen
@@ -470,12 +422,10 @@ class LooselyCoupledFilter:
         zero_velocity : (time, sd), optional
             Time stamps of zero-velocity updates and their 1-sigma, m/s.
         """
-        t_all, g_all, a_all = _check_imu(imu_time, gyro, accel)
+        t_all, g_all, a_all = check_imu(imu_time, gyro, accel)
         if init is None:
             if gnss is None:
                 raise InputError("without init the filter aligns from GNSS: give gnss")
-            from stochmod.nav.alignment import align_from_gnss
-
             init = align_from_gnss(t_all, g_all, a_all, gnss, kind=kind)
         if not isinstance(init, InitialState):
             raise InputError(f"init must be an InitialState, got {type(init).__name__}")

@@ -37,7 +37,8 @@ from stochmod.errors import InputError
 from stochmod.nav import earth, frames
 from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 
-__all__ = ["NavState", "Mechanisation", "StrapdownResult", "strapdown", "imu_increments"]
+__all__ = ["NavState", "Mechanisation", "StrapdownResult", "strapdown", "imu_increments",
+           "check_imu"]
 
 _OM = earth.OMEGA_IE
 _A, _E2 = earth.A, earth.E2
@@ -263,8 +264,10 @@ class StrapdownResult(TrajectoryArrays):
     vel_ned m/s, rph deg)."""
 
 
-def _check_imu(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def check_imu(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """IMU arrays checked: strictly increasing finite time (s, at least two samples) and
+    finite (n, 3) gyro and accel of the same length (InputError naming the problem)."""
     t = check_time(time, "time")
     if t.size < 2:
         raise InputError("strapdown needs at least two IMU samples")
@@ -307,7 +310,7 @@ def strapdown(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat: float,
     -------
     StrapdownResult
     """
-    t, g, a = _check_imu(time, gyro, accel)
+    t, g, a = check_imu(time, gyro, accel)
     mech = Mechanisation(NavState.from_degrees(lat=lat, lon=lon, height=height, vel_ned=vel_ned,
                                                rph=rph))
     h, dth, dv, con, scu = imu_increments(t, g, a, kind)

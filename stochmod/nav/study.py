@@ -32,7 +32,8 @@ from stochmod.nav.emulate import (
     ideal_imu,
     trajectory_from_profile,
 )
-from stochmod.nav.filter import InitialState, LooselyCoupledFilter
+from stochmod.nav.alignment import InitialState
+from stochmod.nav.filter import LooselyCoupledFilter
 from stochmod.nav.records import ImuData
 from stochmod.reporting import format_table
 
