@@ -12,7 +12,6 @@ import stochmod
 from stochmod.errors import InputError, SpecError
 from stochmod.nav import (
     GnssData,
-    ImuData,
     InitialState,
     LooselyCoupledFilter,
     Segment,
@@ -27,6 +26,8 @@ from stochmod.nav.emulate import AXES
 from stochmod.nav.filter import _discretise
 from stochmod.nav.measurements import heading_jacobian
 from stochmod.statespace import ContinuousBlock, van_loan
+
+from ._emulated import imu_with_biases
 
 FS = 100.0
 WN, GM = stochmod.WN, stochmod.GM
@@ -52,12 +53,7 @@ def clean_imu(truth):
 
 def _emulate(truth, clean, seed):
     rng = np.random.default_rng(seed)
-    bias = np.r_[rng.normal(0, BIAS_SD[0], 3), rng.normal(0, BIAS_SD[1], 3)]
-    noisy = add_sensor_errors(clean, {a: (GYRO if a.startswith("gyro") else ACCEL) for a in AXES},
-                              rng)
-    h = np.diff(clean.time)
-    h = np.r_[h[:1], h][:, None]
-    imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h, "increment")
+    imu, bias = imu_with_biases(clean, GYRO, ACCEL, BIAS_SD, rng)
     gnss = gnss_measurements(truth, 1.0, cep=1.5, sigma_v=3.0, sigma_vel=0.05, lever_arm=ARM,
                              rng=rng)
     init0 = truth.at(truth.time[:1])

@@ -12,18 +12,17 @@ from scipy.stats import chi2
 import stochmod
 from stochmod.errors import InputError
 from stochmod.nav import (
-    ImuData,
     InitialState,
     LooselyCoupledFilter,
     Segment,
-    add_sensor_errors,
     frames,
     gnss_measurements,
     ideal_imu,
     trajectory_from_profile,
 )
-from stochmod.nav.emulate import AXES
 from stochmod.nav.measurements import GnssPosition, GnssVelocity, Snapshot
+
+from ._emulated import imu_with_biases
 
 FS = 100.0
 GYRO = (stochmod.WN.from_density(6e-5, FS) + stochmod.RW.from_rrw(1e-6, FS)).bind(FS)
@@ -45,12 +44,7 @@ def drive():
 
 def _emulate(truth, clean, seed):
     rng = np.random.default_rng(seed)
-    bias = np.r_[rng.normal(0, BIAS_SD[0], 3), rng.normal(0, BIAS_SD[1], 3)]
-    noisy = add_sensor_errors(clean, {a: (GYRO if a.startswith("gyro") else ACCEL) for a in AXES},
-                              rng)
-    h = np.diff(clean.time)
-    h = np.r_[h[:1], h][:, None]
-    imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h, "increment")
+    imu, _ = imu_with_biases(clean, GYRO, ACCEL, BIAS_SD, rng)
     gnss = gnss_measurements(truth, 1.0, sigma_h=0.5, sigma_v=1.0, sigma_vel=0.05,
                              lever_arm=ARM, rng=rng)
     t0 = truth.at(truth.time[:1])
