@@ -192,45 +192,9 @@ def classical_wvar(
     alpha: float = 0.05,
 ) -> WaveletVariance:
     """Classical (mean of squares) MODWT wavelet variance at levels 1..J with intervals; the
-    estimator behind :func:`stochmod.signal.wavelet_variance.wvar` (``robust=False``).
+    estimator behind :func:`stochmod.signal.wavelet_variance.wvar` (``robust=False``), whose
+    docstring gives the parameters, the interval methods, the result and the errors.
 
-    Parameters
-    ----------
-    x : array_like, shape (N,)
-        Finite, non-constant signal in its own unit (e.g. rad/s); any length N >= L_1.
-    freq : float
-        Sampling frequency, Hz.
-    wavelet : str
-        Orthogonal PyWavelets wavelet (default "haar"; Daubechies "db2", "db4", ... or
-        "sym4" ... for processes whose differences of order L_1/2 are stationary).
-    levels : int, optional
-        Number of levels J; default ``floor(log2 N) - 1``, capped so that the level-J
-        filter fits in the signal. Asking for more than the data allow raises.
-    ci : {"chi2", "normal"}
-        Interval method. "chi2" (default): ``eta v / chi2_{1-alpha/2}(eta)`` to
-        ``eta v / chi2_{alpha/2}(eta)`` with equivalent degrees of freedom
-        ``eta = max(M_j / 2^j, 1)`` (Percival & Walden 2000, eta_3), as the R gmwm package;
-        always positive, skewed like the estimator's distribution, and free.
-        "normal": ``v -+ z sqrt(S_j / M_j)`` where ``S_j = sum_{|tau|<M_j} s_tau^2`` is the
-        estimate (eq. 11) of the asymptotic variance (eq. 10) from the wavelet coefficients'
-        autocovariances, by FFT in O(M_j log M_j) per level; its lower end is clipped at
-        ``NORMAL_CI_FLOOR * v`` (1e-3 v) when ``v - z sqrt(S_j / M_j)`` is not larger.
-    alpha : float
-        Significance level; the intervals have nominal coverage ``1 - alpha``.
-
-    Returns
-    -------
-    WaveletVariance
-        Levels, averaging times (s), wavelet variance (unit^2), intervals, ``M_j``.
-
-    Raises
-    ------
-    InputError
-        Empty, too short, NaN/inf, 2-D, non-numeric or constant `x`; bad `freq`, `levels`,
-        `ci`, `alpha`; unknown or non-orthogonal wavelet.
-
-    Notes
-    -----
     Extra memory: one copy of `x` for "chi2" (the pyramid runs in place, in chunks); for
     "normal" also the coefficients and their zero-padded FFT (about 5 N more).
     """
