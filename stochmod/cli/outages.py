@@ -7,6 +7,7 @@ import argparse
 import math
 import sys
 
+from stochmod.classical.build import family_for
 from stochmod.errors import InputError
 from stochmod.model import Model
 from stochmod.nav.emulate import Segment
@@ -54,15 +55,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def white_part(model: Model) -> Model:
-    """The white-noise-only model of an axis: its WN components, or the WN of equal level-1
-    Haar wavelet variance (``sigma2 = 2 nu_1^2``) when it has none; bound to ``model.freq``."""
-    import stochmod
-
-    white = [p for p in model.processes if p.family == "WN"]
-    if white:
-        return Model((stochmod.WN(sigma2=sum(p.sigma2 for p in white)),)).bind(model.freq)
-    nu1 = float(model.wv(1)[0])
-    return Model((stochmod.WN(sigma2=2.0 * nu1),)).bind(model.freq)
+    """The white-noise-only model of an axis, bound to ``model.freq``: white noise of the
+    model's white feed-through variance (its state-space form's ``white_var``: the components
+    without states), or, when it has none, of equal level-1 Haar wavelet variance
+    (``sigma2 = 2 nu_1``). The white-noise family is the registered one built from the IEEE-952
+    noise density N (``N^2 = sigma2 / freq``), so no family is named here."""
+    freq = float(model.freq)
+    var = float(model.augment(1.0 / freq).white_var)
+    if not var > 0:
+        var = 2.0 * float(model.wv(1)[0])
+    white = family_for(("N",))
+    return Model((white.from_ieee952({"N": math.sqrt(var / freq)}, freq),)).bind(freq)
 
 
 def run(args: argparse.Namespace) -> int:
