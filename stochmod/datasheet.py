@@ -287,13 +287,19 @@ def _physical(fit: GMWMResult) -> list[ParameterEstimate]:
                 for name, pv in proc.physical(freq).items()]
 
 
+#: Octaves of the model's theoretical AV beyond the fitted range that the spline also runs over.
+_SPLINE_EXTRA_OCTAVES = 2
+
+
 def model_allan_minimum(fit: GMWMResult, points_per_octave: int = 16
                         ) -> tuple[float, float, bool]:
     """Minimum of the fitted model's Allan deviation over the fitted averaging times.
 
     The model's Allan variance at the dyadic averaging times ``tau_j = 2^(j-1) / freq`` is twice
     its Haar wavelet variance (exact, levels 1..J of the fit); between them it is interpolated
-    by a cubic spline of log AV in log tau (a sum of power laws is smooth there).
+    by a cubic spline of log AV in log tau (a sum of power laws is smooth there). The spline
+    runs over two more octaves of the model's theoretical AV than the fitted range, so that its
+    end conditions do not bend the curve where a minimum near the last fitted tau is read.
 
     Returns
     -------
@@ -314,7 +320,12 @@ def model_allan_minimum(fit: GMWMResult, points_per_octave: int = 16
     if J < 3:
         k = int(np.argmin(av))
         return float(tau[k]), float(np.sqrt(av[k])), k in (0, J - 1)
-    spline = CubicSpline(np.log(tau), np.log(av))
+    extra = _SPLINE_EXTRA_OCTAVES
+    tau_ext = 2.0 ** np.arange(J + extra) / freq
+    av_ext = 2.0 * fit.model.wv(J + extra)
+    if not np.all(np.isfinite(av_ext) & (av_ext > 0)):
+        tau_ext, av_ext = tau, av  # the theory beyond the fitted range is unusable: fitted range only
+    spline = CubicSpline(np.log(tau_ext), np.log(av_ext))
     grid = np.linspace(np.log(tau[0]), np.log(tau[-1]), (J - 1) * points_per_octave + 1)
     values = spline(grid)
     k = int(np.argmin(values))
