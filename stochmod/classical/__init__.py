@@ -5,6 +5,7 @@ This package sits above :mod:`stochmod.signal` (which returns coefficients) and
 :mod:`stochmod.fit` (whose weighting :func:`compare_models` uses); see docs/architecture.md.
 """
 
+from stochmod.classical import build, pipelines
 from stochmod.classical.build import (
     BIAS_OPTIONS,
     acf_model,
@@ -31,26 +32,4 @@ from stochmod.classical.pipelines import (
     psd_model,
 )
 
-__all__ = [
-    "BIAS_OPTIONS",
-    "family_for",
-    "model_from_coefficients",
-    "allan_model",
-    "psd_reading_model",
-    "acf_model",
-    "ar_model",
-    "reading_model",
-    "AVModel",
-    "AVWDModel",
-    "DenoisedARModel",
-    "PSDModel",
-    "ACFGMModel",
-    "ModelScore",
-    "ModelComparison",
-    "av_model",
-    "avwd_model",
-    "denoised_ar_model",
-    "psd_model",
-    "acf_gm_model",
-    "compare_models",
-]
+__all__ = [*build.__all__, *pipelines.__all__]
