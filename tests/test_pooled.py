@@ -140,3 +140,59 @@ def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
     assert report["columns"]["gyro_x"]["name"] == direct.best.model.name == "GM+WN"
     assert main(["calibrate", "--pooled", "--out", str(out)]) == 2  # no FILE: no replicates
     assert "--pooled needs two or more FILEs" in capsys.readouterr().err
+
+
+def test_replicates_of_different_lengths_pool_on_the_levels_each_has() -> None:
+    from stochmod.signal.wv_covariance import wv_covariance
+
+    xs = [np.random.default_rng(10 + i).standard_normal(n) for i, n in enumerate((5000, 300, 9000))]
+    pooled = pooled_wvar(xs, FREQ)
+    each = [stochmod.wvar(x, FREQ) for x in xs]  # 11, 7 and 12 levels
+    assert [w.wv.size for w in each] == [11, 7, 12] and pooled.wv.wv.size == 12
+    for j in range(12):  # the mean of every squared coefficient at level j+1, by hand
+        having = [w for w in each if w.wv.size > j]
+        total = sum(w.wv[j] * w.n_coef[j] for w in having) / sum(w.n_coef[j] for w in having)
+        assert pooled.wv.wv[j] == pytest.approx(total, rel=1e-13)
+        assert pooled.wv.n_coef[j] == sum(w.n_coef[j] for w in having)
+    # level 12 comes from the longest replicate alone, level 1 from all three
+    covs = [wv_covariance(x, w.wv.size) for x, w in zip(xs, each)]
+    assert pooled.covariance[11, 11] == pytest.approx(covs[2][11, 11], rel=1e-12)
+    share = np.array([w.n_coef[0] for w in each], dtype=float)
+    share /= share.sum()
+    assert pooled.covariance[0, 0] == pytest.approx(sum(s**2 * c[0, 0] for s, c in zip(share, covs)),
+                                                    rel=1e-12)
+    assert "-" in pooled.summary()
+    with pytest.raises(InputError, match="longest replicate"):
+        pooled_wvar(xs, FREQ, levels=13)
+
+
+@pytest.mark.slow
+def test_calibrate_split_gaps_pools_the_segments(tmp_path: Path, capsys) -> None:
+    """A recording with a gap: calibrate --split-gaps fits one model to both segments' pooled WV
+    (the same as select on the segments as replicates) and recovers the simulated truth."""
+    from stochmod.cli import main
+
+    model = stochmod.model_from_spec(TRUE, FREQ)
+    x = model.simulate(2**15, rng=41)
+    keep = np.r_[0:12000, 13000:2**15]  # 10 s missing from t = 120 s
+    path = tmp_path / "gap.csv"
+    np.savetxt(path, np.column_stack([keep / FREQ, x[keep]]), delimiter=",",
+               header="time,gyro_x", comments="")
+    out = tmp_path / "cal"
+    argv = ["calibrate", str(path), "--candidates", "WN", "GM+WN", "--out", str(out),
+            "--no-plots", "--json"]
+    assert main(argv) == 2
+    assert "--split-gaps" in capsys.readouterr().err
+    assert main([*argv, "--split-gaps"]) == 0
+    captured = capsys.readouterr()
+    assert "pooling the wavelet variances of 2" in captured.err
+    report = __import__("json").loads(captured.out)
+    assert report["n"] == keep.size
+    assert report["segments"] == [{"start": 0.0, "n": 12000}, {"start": 130.0, "n": 2**15 - 13000}]
+    direct = stochmod.select([x[:12000], x[13000:]], FREQ, candidates=["WN", "GM+WN"])
+    column = report["columns"]["gyro_x"]
+    assert column["name"] == direct.best.model.name == "GM+WN"
+    got = np.array([p["value"] for p in column["parameters"]])
+    np.testing.assert_allclose(got, direct.best.model.vector(), rtol=1e-6)
+    z = (direct.best.model.vector() - model.vector()) / direct.best.std_errors
+    assert np.all(np.abs(z) < 4), z

@@ -277,11 +277,18 @@ def test_cli_gap_is_an_error_that_says_where(
     assert main(["wv", str(path), "--json"]) == 2
     err = capsys.readouterr().err
     assert "after sample 299 (t = 2.99 s)" in err and "--split-gaps" in err
+    # wv pools the two segments: the mean of all their squared coefficients at each level
     assert main(["wv", str(path), "--split-gaps", "--json"]) == 0
     captured = capsys.readouterr()
-    assert "using the longest (300 of 599 samples" in captured.err
-    got = np.array(json.loads(captured.out)["columns"]["x"]["wv"], dtype=float)
-    np.testing.assert_allclose(got, wvar(x[:300], 100.0).wv, rtol=1e-9)
+    assert "2 gap-free segments; pooling the wavelet variances of 2 (599 samples)" in captured.err
+    column = json.loads(captured.out)["columns"]["x"]
+    each = [wvar(x[:300], 100.0), wvar(x[300:], 100.0)]
+    pooled = sum(w.wv * w.n_coef for w in each) / sum(w.n_coef for w in each)
+    np.testing.assert_allclose(np.array(column["wv"], dtype=float), pooled, rtol=1e-12)
+    assert column["segments"] == 2 and column["n"] == 599
+    # a subcommand that does not pool (Allan) reads the longest segment and says so
+    assert main(["allan", str(path), "--split-gaps", "--json"]) == 0
+    assert "using the longest (300 of 599 samples" in capsys.readouterr().err
 
 
 def test_cli_reader_options_refused_for_the_bundled_example(

@@ -14,7 +14,8 @@ from stochmod._validation import check_freq
 from stochmod.errors import InputError
 from stochmod.io import Recording, read_recording
 
-__all__ = ["add_input_arguments", "load_input", "print_json", "to_jsonable"]
+__all__ = ["MIN_SEGMENT", "add_input_arguments", "column_replicates", "gap_free_segments",
+           "load_input", "load_segments", "longest_segment", "print_json", "to_jsonable"]
 
 
 def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool = True) -> None:
@@ -40,21 +41,68 @@ def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool 
                      help="unit of the data, e.g. deg/s, mg (default: the file's header); "
                           "converted to SI (allan reports in it)")
     log.add_argument("--split-gaps", action="store_true",
-                     help="accept gaps in the time stamps and use the gap-free data "
-                          "(without it a gap is an error that says where)")
+                     help="accept gaps in the time stamps: calibrate, select, fit and wv pool "
+                          "the wavelet variances of the gap-free segments, the other "
+                          "subcommands use the longest one (without it a gap is an error that "
+                          "says where)")
 
 
-def _longest_segment(rec: Recording) -> Recording:
-    """The longest gap-free piece of `rec` (pooling all pieces is not wired into the CLIs yet)."""
+MIN_SEGMENT = 8
+"""Fewest samples a gap-free segment needs to be pooled (``--split-gaps``); shorter ones are
+dropped, and the samples they hold are reported."""
+
+
+def gap_free_segments(rec: Recording) -> list[Recording]:
+    """The gap-free pieces of `rec` that hold at least :data:`MIN_SEGMENT` samples, in time order.
+
+    The pieces are the replicates whose wavelet variances the pooling subcommands (``calibrate``,
+    ``select``, ``fit``, ``wv``) pool; a note on stderr says how many there are and what was
+    dropped.
+
+    Raises
+    ------
+    InputError
+        No piece holds :data:`MIN_SEGMENT` samples.
+    """
     pieces = rec.segments()
     if len(pieces) == 1:
-        return rec
-    longest = max(pieces, key=lambda r: r.data.shape[0])
-    print(f"{rec.path}: {len(pieces)} gap-free segments; using the longest "
-          f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, "
-          f"from t = {longest.time[0]:.6g} s)",
-          file=sys.stderr)
-    return longest
+        return pieces
+    kept = [p for p in pieces if p.data.shape[0] >= MIN_SEGMENT]
+    dropped = sum(p.data.shape[0] for p in pieces) - sum(p.data.shape[0] for p in kept)
+    if not kept:
+        raise InputError(f"{rec.path}: no gap-free segment holds {MIN_SEGMENT} samples")
+    print(f"{rec.path}: {len(pieces)} gap-free segments; pooling the wavelet variances of "
+          f"{len(kept)} ({rec.data.shape[0] - dropped} samples"
+          + (f"; {dropped} samples in segments shorter than {MIN_SEGMENT} dropped)" if dropped
+             else ")"), file=sys.stderr)
+    return kept
+
+
+def longest_segment(rec: Recording) -> Recording:
+    """The longest gap-free piece of `rec`: the data of the subcommands that do not pool
+    segments (``allan``, ``psd``, ``ar``, ``denoise``) and of calibrate's Allan reading and
+    validation bands."""
+    pieces = rec.segments()
+    return max(pieces, key=lambda r: r.data.shape[0])
+
+
+def _read(args: argparse.Namespace, to_si: bool, path: str | None = None
+          ) -> tuple[Recording, float]:
+    path = args.file if path is None else path
+    rec = read_recording(path, columns=args.column, reader=getattr(args, "reader", None),
+                         split_gaps=getattr(args, "split_gaps", False),
+                         topic=getattr(args, "topic", None),
+                         instance=getattr(args, "instance", None))
+    if rec.timing is not None:
+        t = rec.timing
+        print(f"{path}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "
+              f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
+    if to_si:
+        rec = rec.to_si(getattr(args, "unit", None))
+    freq = args.freq if args.freq is not None else rec.freq
+    if freq is None:
+        raise InputError(f"{path} does not record its sampling frequency: pass --freq HZ")
+    return rec, check_freq(freq, name="--freq")
 
 
 def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recording, float]:
@@ -62,21 +110,36 @@ def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recordi
 
     The reader options (``--reader``, ``--topic``, ``--instance``, ``--split-gaps``) go to
     :func:`~stochmod.io.read_recording`; ``--unit`` (else the file's units) converts to SI
-    unless `to_si` is False (a subcommand that reports in the user's unit).
+    unless `to_si` is False (a subcommand that reports in the user's unit). A recording with
+    gaps (``--split-gaps``) gives its longest gap-free segment, with a note on stderr; the
+    subcommands that pool the segments use :func:`load_segments`.
     """
-    rec = read_recording(args.file, columns=args.column, reader=getattr(args, "reader", None),
-                         split_gaps=getattr(args, "split_gaps", False),
-                         topic=getattr(args, "topic", None),
-                         instance=getattr(args, "instance", None))
-    if rec.timing is not None:
-        t = rec.timing
-        print(f"{args.file}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "
-              f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
-    rec = _longest_segment(rec.to_si(getattr(args, "unit", None)) if to_si else rec)
-    freq = args.freq if args.freq is not None else rec.freq
-    if freq is None:
-        raise InputError(f"{args.file} does not record its sampling frequency: pass --freq HZ")
-    return rec, check_freq(freq, name="--freq")
+    rec, freq = _read(args, to_si)
+    longest = longest_segment(rec)
+    if longest is not rec:
+        print(f"{rec.path}: {len(rec.segments())} gap-free segments; using the longest "
+              f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, from t = "
+              f"{longest.time[0]:.6g} s; calibrate, select, fit and wv pool all segments)",
+              file=sys.stderr)
+    return longest, freq
+
+
+def load_segments(args: argparse.Namespace, path: str | None = None
+                  ) -> tuple[list[Recording], float]:
+    """Like :func:`load_input`, but a recording with gaps (``--split-gaps``) gives all its
+    gap-free segments (:func:`gap_free_segments`), whose wavelet variances the caller pools as
+    replicates (:mod:`stochmod.fit.pooled`); one segment without gaps. `path` replaces
+    ``args.file`` (``calibrate --pooled`` reads several files with the same options)."""
+    rec, freq = _read(args, True, path)
+    return gap_free_segments(rec), freq
+
+
+def column_replicates(segments: list[Recording], k: int, scale: float = 1.0
+                      ) -> np.ndarray | list[np.ndarray]:
+    """Column `k` of the segments times `scale`: one signal, or the list of the segments'
+    signals (replicates for :func:`stochmod.gmwm` / :func:`stochmod.select`)."""
+    xs = [s.data[:, k] * scale for s in segments]
+    return xs[0] if len(xs) == 1 else xs
 
 
 def to_jsonable(obj: Any) -> Any:

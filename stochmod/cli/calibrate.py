@@ -13,8 +13,8 @@ import attrs
 
 from stochmod._validation import check_freq
 from stochmod.cli import _calibrate_outputs as extras
-from stochmod.cli._common import add_input_arguments, load_input, print_json, to_jsonable
-from stochmod.cli.select import add_selection_arguments, selection_options
+from stochmod.cli._common import add_input_arguments, load_segments, print_json, to_jsonable
+from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
 from stochmod.errors import EstimationError, InputError
 from stochmod.fleet import SerialExecutor, run_fleet
 from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
@@ -64,7 +64,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _input(args: argparse.Namespace) -> tuple[Recording, float]:
+def _input(args: argparse.Namespace) -> tuple[list[Recording], float]:
+    """The recording's gap-free segments (one without gaps, several with ``--split-gaps``)."""
     if args.file is None:
         # reader options (stochmod.cli._common) apply to files only
         given = [f"--{o.replace('_', '-')}" for o in ("reader", "topic", "instance", "unit")
@@ -75,10 +76,10 @@ def _input(args: argparse.Namespace) -> tuple[Recording, float]:
         rec = xsens_mtig(n=args.n).select(args.column)
         if args.freq is not None and args.freq != rec.freq:
             raise InputError(f"--freq {args.freq:g} does not apply to the bundled example ({rec.freq:g} Hz)")
-        return rec, float(rec.freq)
+        return [rec], float(rec.freq)
     if args.n != DEFAULT_EXAMPLE_N:
         raise InputError("--n applies to the bundled example only (no FILE)")
-    return load_input(args)
+    return load_segments(args)
 
 
 def _block_dict(block: StateSpaceBlock) -> dict[str, Any]:
@@ -150,7 +151,7 @@ def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
 
 
 def _table(results: list[SelectionResult], rec: Recording, freq: float,
-           units: dict[str, str]) -> str:
+           units: dict[str, str], samples: str | None = None) -> str:
     rows = []
     for sel in results:
         best = sel.best
@@ -160,49 +161,51 @@ def _table(results: list[SelectionResult], rec: Recording, freq: float,
         for e in _safe(best.physical) or []:
             unit = re.sub(r"\bu\b", f"({signal_unit})", e.unit) if signal_unit else e.unit
             rows.append([sel.column, best.model.name, e.name, e.value, e.low, e.high, unit, pval])
-    title = (f"stochmod calibrate: {rec.path} ({rec.data.shape[0]} samples x {len(results)} "
+    samples = samples or f"{rec.data.shape[0]} samples"
+    title = (f"stochmod calibrate: {rec.path} ({samples} x {len(results)} "
              f"column(s) at {freq:g} Hz); selected by {results[0].criterion}")
     return format_table(["column", "model", "parameter", "value", "95% low", "95% high", "unit",
                          "J-test p"], rows, title=title)
 
 
-def _replicates(args: argparse.Namespace) -> tuple[list[Recording], float]:
-    """The replicate recordings of ``--pooled`` (same columns, same frequency)."""
-    from stochmod.io import read_recording
-
+def _replicates(args: argparse.Namespace) -> tuple[list[list[Recording]], float]:
+    """The replicate recordings of ``--pooled`` (same columns, same frequency), each as its
+    gap-free segments (one without ``--split-gaps``), the units converted to SI."""
     if args.file is None or not args.more_files:
         raise InputError("--pooled needs two or more FILEs (replicates of one sensor model)")
-    recs = [read_recording(f, columns=args.column) for f in [args.file, *args.more_files]]
-    for rec in recs[1:]:
-        if rec.columns != recs[0].columns:
-            raise InputError(f"{rec.path} has columns {list(rec.columns)}, {recs[0].path} has "
-                             f"{list(recs[0].columns)}: replicates must share them (--column)")
-    freqs = {args.freq} if args.freq is not None else {r.freq for r in recs}
-    if None in freqs:
-        raise InputError("a replicate does not record its sampling frequency: pass --freq HZ")
+    read = [load_segments(args, path) for path in [args.file, *args.more_files]]
+    first = read[0][0][0]
+    for segs, _ in read[1:]:
+        if segs[0].columns != first.columns:
+            raise InputError(f"{segs[0].path} has columns {list(segs[0].columns)}, {first.path} "
+                             f"has {list(first.columns)}: replicates must share them (--column)")
+    freqs = {freq for _, freq in read}
     if len(freqs) != 1:
         raise InputError(f"the replicates have different sampling frequencies {sorted(freqs)}")
-    return recs, check_freq(freqs.pop(), name="--freq")
+    return [segs for segs, _ in read], freqs.pop()
 
 
 def _run_pooled(args: argparse.Namespace) -> int:
     """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
     from stochmod.fit.pooled import pooled_wv
 
-    recs, freq = _replicates(args)
+    files, freq = _replicates(args)
+    segments = [s for segs in files for s in segs]
+    sizes = [sum(int(s.data.shape[0]) for s in segs) for segs in files]
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     dt = 1.0 / freq if args.dt is None else args.dt
     options = selection_options(args)
     results, tests = [], {}
-    for k, column in enumerate(recs[0].columns):
-        xs = [rec.data[:, k] * args.scale for rec in recs]
+    for k, column in enumerate(segments[0].columns):
+        xs = [seg.data[:, k] * args.scale for seg in segments]
         results.append(select(xs, freq, names=[column], **options))
         test = pooled_wv(xs, freq, options.get("levels")).test
         tests[column] = None if test is None else attrs.asdict(test)
-    report = calibration_report(results, recs[0], freq, dt, args.scale)
-    report["replicates"] = {"files": [r.path for r in recs], "n": [int(r.data.shape[0]) for r in recs],
-                            "equality_test": tests}
+    report = calibration_report(results, segments[0], freq, dt, args.scale)
+    report["n"] = sum(sizes)
+    report["replicates"] = {"files": [segs[0].path for segs in files], "n": sizes,
+                            "segments": len(segments), "equality_test": tests}
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "calibration.json"
@@ -210,11 +213,12 @@ def _run_pooled(args: argparse.Namespace) -> int:
     if args.json:
         print_json(report)
         return 0
-    print(_table(results, recs[0], freq, {}))
+    print(_table(results, segments[0], freq, {}, f"{sum(sizes)} samples in {len(files)} replicates"))
     print(format_table(["column", "equality Q", "dof", "p-value"],
                        [[c, t["statistic"], t["dof"], t["pvalue"]] if t else [c, "-", "-", "-"]
                         for c, t in tests.items()],
-                       title=f"\nreplicates {', '.join(r.path for r in recs)}: do they share one model?"))
+                       title=f"\nreplicates {', '.join(segs[0].path for segs in files)}: do they share one "
+                             "model?"))
     print(f"\nwrote {path}")
     return 0
 
@@ -241,17 +245,19 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     """The single-file calibration: writes OUT/calibration.json (and the asked outputs), prints
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
     `executor` runs the selection's fits (default: its own process pool)."""
-    rec, freq = _input(args)
+    segments, freq = _input(args)
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     dt = 1.0 / freq if args.dt is None else args.dt
     if not dt > 0:
         raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    # with --split-gaps the fits pool all segments; the Allan reading and the validation bands
+    # of the datasheet and report use the longest one
+    rec = max(segments, key=lambda r: r.data.shape[0])
     data = rec.data * args.scale
     sensor_units = extras.column_units(list(rec.columns), args,
                                        required=bool(args.triad or args.export or args.report))
-    results = select(data, freq, names=list(rec.columns), executor=executor,
-                     **selection_options(args))
+    results = select_columns(segments, freq, selection_options(args), args.scale, executor)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)
@@ -260,24 +266,30 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
         results, triads = extras.apply_triad(results, sensor_units)
     sheets = {} if sensor_units is None else extras.datasheet_section(results, data, sensor_units)
     report = calibration_report(results, rec, freq, dt, args.scale)
+    if len(segments) > 1:
+        report["n"] = sum(int(r.data.shape[0]) for r in segments)
+        report["segments"] = [{"start": float(r.time[0]), "n": int(r.data.shape[0])}
+                              for r in segments]
     report["units"] = {"signal": sensor_units, "note": "parameters: canonical per-sample values "
                        "in the signal unit u (see physical for SI, datasheet for datasheet units)"}
     report["datasheet"] = {c: d.to_dict() for c, d in sheets.items()}
     report["triads"] = [t.to_dict() for t in triads]
     path = out / "calibration.json"
     path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
+    samples = f"{report['n']} samples" + (f" in {len(segments)} gap-free segments"
+                                          if len(segments) > 1 else "")
     exported = extras.write_exports_for(args, results, sensor_units, out)
     units = XSENS_UNITS if args.file is None else rec.unit_map()
     figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units)
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
-             f"({rec.data.shape[0]} samples at {freq:g} Hz)")
+             f"({samples} at {freq:g} Hz)")
     figures += extras.write_report_for(args, results, data, sheets, exported, triads, title, out)
     if quiet:
         return report
     if args.json:
         print_json(report)
         return report
-    print(_table(results, rec, freq, units))
+    print(_table(results, rec, freq, units, samples))
     print()
     print(format_table(["column", "selected", "2nd", "criterion gap"],
                        [[s.column, s.ranking[0].model, s.ranking[1].model if len(s.ranking) > 1 else "-",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stochmod.cli._common import add_input_arguments, load_input, print_json
+from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
 from stochmod.fit.gmwm import gmwm
 
 __all__ = ["register", "run"]
@@ -39,11 +39,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit the model to every selected column and print the reports."""
-    rec, freq = load_input(args)
-    fits = {name: gmwm(rec.data[:, k], args.model, freq, weighting=args.weighting,
+    segments, freq = load_segments(args)
+    fits = {name: gmwm(column_replicates(segments, k), args.model, freq, weighting=args.weighting,
                        levels=args.levels, rng=args.seed, robust=args.robust,
                        efficiency=args.efficiency)
-            for k, name in enumerate(rec.columns)}
+            for k, name in enumerate(segments[0].columns)}
     if args.json:
         print_json({"columns": {n: f.to_dict() for n, f in fits.items()}, "freq": freq})
         return 0

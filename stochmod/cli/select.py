@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from stochmod.cli._common import add_input_arguments, load_input, print_json
+from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
 from stochmod.errors import InputError
-from stochmod.fit.selection import select
+from stochmod.fit.selection import SelectionResult, select
+from stochmod.io import Recording
 from stochmod.lattice import default_families, default_max_counts
 
-__all__ = ["register", "run", "add_selection_arguments", "selection_options"]
+__all__ = ["register", "run", "add_selection_arguments", "select_columns", "selection_options"]
 
 
 def add_selection_arguments(p: argparse.ArgumentParser) -> None:
@@ -74,6 +75,17 @@ def _max_counts(items: list[str]) -> dict[str, int]:
     return out
 
 
+def select_columns(segments: list[Recording], freq: float, options: dict[str, Any],
+                   scale: float = 1.0, executor: Any = None) -> list[SelectionResult]:
+    """One selection per column of the recording's gap-free `segments` (their pooled wavelet
+    variance when there are several: ``--split-gaps``), data multiplied by `scale`."""
+    columns = list(segments[0].columns)
+    if len(segments) == 1:
+        return select(segments[0].data * scale, freq, names=columns, executor=executor, **options)
+    return [select(column_replicates(segments, k, scale), freq, names=[c], executor=executor,
+                   **options) for k, c in enumerate(columns)]
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``select`` subcommand."""
     p = subparsers.add_parser(
@@ -93,8 +105,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the selection on every selected column and print the rankings."""
-    rec, freq = load_input(args)
-    results = select(rec.data, freq, names=list(rec.columns), **selection_options(args))
+    segments, freq = load_segments(args)
+    results = select_columns(segments, freq, selection_options(args))
     if args.json:
         print_json({"columns": {r.column: r.to_dict() for r in results}, "freq": freq})
         return 0

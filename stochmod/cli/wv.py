@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from stochmod.cli._common import add_input_arguments, load_input, print_json
+from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
+from stochmod.errors import InputError
+from stochmod.io import Recording
+from stochmod.signal.pooled import pooled_wvar
 from stochmod.signal.wavelet_variance import CI_METHODS, wvar
 
 __all__ = ["register", "run"]
@@ -39,8 +42,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Compute and print the wavelet variance of every selected column."""
-    rec, freq = load_input(args)
+    """Compute and print the wavelet variance of every selected column (with ``--split-gaps``,
+    the pooled WV of the gap-free segments)."""
+    segments, freq = load_segments(args)
+    if len(segments) > 1:
+        return _run_pooled(args, segments, freq)
+    rec = segments[0]
     results = {
         name: wvar(rec.data[:, k], freq, wavelet=args.wavelet, levels=args.levels,
                    ci=args.ci, alpha=args.alpha,
@@ -52,4 +59,26 @@ def run(args: argparse.Namespace) -> int:
         return 0
     blocks = [f"column {name}\n{res.summary()}" for name, res in results.items()]
     print("\n\n".join(blocks))
+    return 0
+
+
+def _run_pooled(args: argparse.Namespace, segments: list[Recording], freq: float) -> int:
+    """The pooled WV of the gap-free segments (chi-square intervals, the equality test)."""
+    if args.robust:
+        raise InputError("--robust is not available with gaps split into segments: the pooled "
+                         "wavelet variance is the classical one")
+    if args.ci != "chi2":
+        raise InputError("--ci normal is not available with gaps split into segments: the "
+                         "pooled wavelet variance has chi-square intervals")
+    results = {name: pooled_wvar(column_replicates(segments, k), freq, levels=args.levels,
+                                 wavelet=args.wavelet, alpha=args.alpha)
+               for k, name in enumerate(segments[0].columns)}
+    if args.json:
+        print_json({"columns": {n: {**r.wv.to_dict(), "segments": len(r.replicates),
+                                    "equality_test": None if r.test is None else {
+                                        "statistic": r.test.statistic, "dof": r.test.dof,
+                                        "pvalue": r.test.pvalue}}
+                                for n, r in results.items()}, "freq": freq})
+        return 0
+    print("\n\n".join(f"column {name}\n{res.summary()}" for name, res in results.items()))
     return 0

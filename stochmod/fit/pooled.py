@@ -15,11 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
+from stochmod._validation import as_signal, check_freq
 from stochmod.errors import InputError
 from stochmod.fit.weighting import chi2_variance, data_covariance, weighting_from_covariance
-from stochmod.signal.modwt import default_levels
-from stochmod.signal.pooled import PooledWaveletVariance, pool_wv
+from stochmod.signal.pooled import PooledWaveletVariance, pool_wv, replicate_levels
 from stochmod.signal.wavelet_variance import wvar
 
 __all__ = ["is_replicates", "pooled_wv"]
@@ -33,7 +32,8 @@ def is_replicates(data: Any) -> bool:
 
 def pooled_wv(signals: Sequence[np.ndarray], freq: float, levels: int | None = None,
               wavelet: str = "haar") -> PooledWaveletVariance:
-    """Pooled WV of the replicates with decoupled eq. 17 covariances (the fit layer's V)."""
+    """Pooled WV of the replicates with decoupled eq. 17 covariances (the fit layer's V); each
+    replicate contributes the levels its length supports (:func:`replicate_levels`)."""
     if len(signals) < 2:
         raise InputError("a list of replicates needs at least two signals")
     freq = check_freq(freq)
@@ -41,11 +41,6 @@ def pooled_wv(signals: Sequence[np.ndarray], freq: float, levels: int | None = N
     for k, x in enumerate(xs):
         if np.ptp(x) == 0:
             raise InputError(f"replicate {k} is constant: it has no noise to model")
-    J = min(default_levels(x.size, wavelet) for x in xs)
-    if levels is not None:
-        levels = check_positive_int(levels, name="levels")
-        if levels > J:
-            raise InputError(f"levels = {levels} but the shortest replicate allows {J}")
-        J = levels
-    wvs = [wvar(x, freq, wavelet=wavelet, levels=J) for x in xs]
-    return pool_wv(wvs, [data_covariance(x, emp, J) for x, emp in zip(xs, wvs)])
+    depths = replicate_levels([x.size for x in xs], levels, wavelet)
+    wvs = [wvar(x, freq, wavelet=wavelet, levels=J) for x, J in zip(xs, depths)]
+    return pool_wv(wvs, [data_covariance(x, emp, J) for x, emp, J in zip(xs, wvs, depths)])

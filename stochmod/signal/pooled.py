@@ -13,6 +13,12 @@ Whether the replicates share one WV is tested by the homogeneity statistic
 mean, asymptotically chi-square with ``(K - 1) J`` degrees of freedom under the null, on the
 levels where every replicate has at least ``min_dof`` equivalent degrees of freedom (deep levels
 with few coefficients have unreliable covariance estimates).
+
+Replicates of different lengths may reach different depths: a replicate whose data support
+only levels ``1..J_k`` contributes ``M_{j,k} = 0`` coefficients (weight 0) at the deeper levels,
+so the pooled WV reaches the depth of the longest replicate. This is how the gap-free segments of
+one recording are pooled (``stochmod calibrate --split-gaps``): a short segment adds its
+coefficients to the levels it has and nothing to the others.
 """
 
 from __future__ import annotations
@@ -25,14 +31,15 @@ from numpy.typing import ArrayLike
 from scipy import stats
 
 from stochmod._fields import array_field
-from stochmod._validation import as_signal, check_alpha, check_freq
+from stochmod._validation import as_signal, check_alpha, check_freq, check_positive_int
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
 from stochmod.signal.modwt import default_levels
 from stochmod.signal.wavelet_variance import WaveletVariance, chi2_interval, wvar
 from stochmod.signal.wv_covariance import wv_covariance
 
-__all__ = ["EqualityTest", "PooledWaveletVariance", "pool_wv", "pooled_wvar", "wv_equality_test"]
+__all__ = ["EqualityTest", "PooledWaveletVariance", "pool_wv", "pooled_wvar", "replicate_levels",
+           "wv_equality_test"]
 
 
 @attrs.frozen
@@ -90,7 +97,8 @@ class PooledWaveletVariance:
 
     def summary(self) -> str:
         """The pooled WV per level next to each replicate's, and the equality test."""
-        rows = [[int(j), t, v, np.sqrt(self.covariance[i, i]), *(r.wv[i] for r in self.replicates)]
+        rows = [[int(j), t, v, np.sqrt(self.covariance[i, i]),
+                 *(r.wv[i] if i < r.wv.size else "-" for r in self.replicates)]
                 for i, (j, t, v) in enumerate(zip(self.wv.levels, self.wv.tau, self.wv.wv))]
         headers = ["level", "tau [s]", "pooled WV", "std error", *(f"rep {k}" for k in range(len(self.replicates)))]
         text = format_table(headers, rows, title=f"Pooled wavelet variance of {len(self.replicates)} "
@@ -98,14 +106,34 @@ class PooledWaveletVariance:
         return text + ("" if self.test is None else "\n" + self.test.summary())
 
 
+def replicate_levels(lengths: Sequence[int], levels: int | None = None,
+                     wavelet: str = "haar") -> list[int]:
+    """Levels each replicate contributes: ``min(J, default_levels(N_k))`` with ``J`` the given
+    `levels` or, by default, the deepest a replicate allows.
+
+    Raises
+    ------
+    InputError
+        `levels` deeper than the longest replicate allows.
+    """
+    own = [default_levels(n, wavelet) for n in lengths]
+    if levels is None:
+        return own
+    levels = check_positive_int(levels, name="levels")
+    if levels > max(own):
+        raise InputError(f"levels = {levels} but the longest replicate ({max(lengths)} samples) "
+                         f"allows {max(own)}")
+    return [min(levels, j) for j in own]
+
+
 def wv_equality_test(wvs: Sequence[WaveletVariance], covariances: Sequence[np.ndarray], *,
                      min_dof: float = 20.0) -> EqualityTest | None:
     """Homogeneity test ``Q`` of replicate WVs with their covariances (see the module docstring)."""
     if len(wvs) < 2:
         return None
-    J = wvs[0].wv.size
+    J = max(r.wv.size for r in wvs)
     levels = np.arange(1, J + 1)
-    dof = np.min([r.n_coef[:J] / 2.0**levels for r in wvs], axis=0)
+    dof = np.min([np.pad(r.n_coef, (0, J - r.wv.size)) / 2.0**levels for r in wvs], axis=0)
     use = np.flatnonzero(dof >= min_dof)
     if use.size == 0:
         return None
@@ -120,28 +148,41 @@ def wv_equality_test(wvs: Sequence[WaveletVariance], covariances: Sequence[np.nd
 
 def pool_wv(wvs: Sequence[WaveletVariance], covariances: Sequence[np.ndarray], *,
             min_dof: float = 20.0) -> PooledWaveletVariance:
-    """Pool replicate WVs (same frequency, wavelet and levels) with their covariances."""
+    """Pool replicate WVs (same frequency and wavelet, levels ``1..J_k`` each) with their
+    covariances (``J_k x J_k`` each); the pooled WV has the levels of the deepest replicate."""
     if not wvs:
         raise InputError("no replicate to pool")
-    first = wvs[0]
-    J = first.wv.size
-    for r in wvs[1:]:
-        if r.freq != first.freq or r.wavelet != first.wavelet or r.wv.size != J:
-            raise InputError("replicates must share the sampling frequency, wavelet and levels; got "
-                             f"{(first.freq, first.wavelet, J)} and {(r.freq, r.wavelet, r.wv.size)}")
-    if len(covariances) != len(wvs) or any(np.shape(c) != (J, J) for c in covariances):
-        raise InputError(f"one ({J}, {J}) covariance per replicate is needed")
-    counts = np.array([r.n_coef for r in wvs], dtype=np.float64)
+    deepest = max(wvs, key=lambda r: r.wv.size)
+    J = deepest.wv.size
+    for r in wvs:
+        if r.freq != deepest.freq or r.wavelet != deepest.wavelet:
+            raise InputError("replicates must share the sampling frequency and wavelet; got "
+                             f"{(deepest.freq, deepest.wavelet)} and {(r.freq, r.wavelet)}")
+        if not np.array_equal(r.levels, deepest.levels[:r.wv.size]):
+            raise InputError(f"each replicate's WV must hold the levels 1..J_k; one has "
+                             f"{r.levels.tolist()}")
+    if len(covariances) != len(wvs) or any(np.shape(c) != (r.wv.size,) * 2
+                                           for r, c in zip(wvs, covariances)):
+        raise InputError("one J_k x J_k covariance per replicate (its own levels) is needed")
+    counts = np.zeros((len(wvs), J))
+    values = np.zeros((len(wvs), J))
+    padded = []
+    for k, (r, c) in enumerate(zip(wvs, covariances)):
+        m = r.wv.size
+        counts[k, :m], values[k, :m] = r.n_coef, r.wv
+        full = np.zeros((J, J))
+        full[:m, :m] = c
+        padded.append(full)
     weights = counts / counts.sum(axis=0)
-    nu = np.sum(weights * np.array([r.wv for r in wvs]), axis=0)
-    cov = sum(np.outer(w, w) * c for w, c in zip(weights, covariances))
+    nu = np.sum(weights * values, axis=0)
+    cov = sum(np.outer(w, w) * c for w, c in zip(weights, padded))
     n_coef = counts.sum(axis=0).astype(np.int64)
-    low, high = chi2_interval(nu, n_coef, first.levels, first.alpha)
-    arrays = [first.levels.copy(), first.tau.copy(), nu, low, high, n_coef]
+    low, high = chi2_interval(nu, n_coef, deepest.levels, deepest.alpha)
+    arrays = [deepest.levels.copy(), deepest.tau.copy(), nu, low, high, n_coef]
     for a in arrays:
         a.setflags(write=False)
-    pooled = WaveletVariance(*arrays, freq=first.freq, wavelet=first.wavelet,
-                             n=int(sum(r.n for r in wvs)), ci_method="chi2", alpha=first.alpha)
+    pooled = WaveletVariance(*arrays, freq=deepest.freq, wavelet=deepest.wavelet,
+                             n=int(sum(r.n for r in wvs)), ci_method="chi2", alpha=deepest.alpha)
     return PooledWaveletVariance(wv=pooled, covariance=cov, replicates=tuple(wvs),
                                  covariances=tuple(covariances),
                                  test=wv_equality_test(wvs, covariances, min_dof=min_dof))
@@ -159,7 +200,8 @@ def pooled_wvar(signals: Sequence[ArrayLike], freq: float, *, levels: int | None
     freq : float
         Common sampling frequency, Hz.
     levels : int, optional
-        Levels J (default: all the shortest replicate allows).
+        Levels J (default: all the longest replicate allows; a shorter replicate contributes
+        to the levels its data support).
     wavelet : str
         Orthogonal wavelet (Haar by default).
     alpha : float
@@ -178,7 +220,7 @@ def pooled_wvar(signals: Sequence[ArrayLike], freq: float, *, levels: int | None
     freq = check_freq(freq)
     alpha = check_alpha(alpha)
     xs = [as_signal(s, name=f"replicate {k}", min_length=8) for k, s in enumerate(signals)]
-    J = min(default_levels(x.size, wavelet) for x in xs) if levels is None else levels
-    wvs = [wvar(x, freq, wavelet=wavelet, levels=J, alpha=alpha) for x in xs]
-    covs = [wv_covariance(x, J, wavelet=wavelet) for x in xs]
+    depths = replicate_levels([x.size for x in xs], levels, wavelet)
+    wvs = [wvar(x, freq, wavelet=wavelet, levels=J, alpha=alpha) for x, J in zip(xs, depths)]
+    covs = [wv_covariance(x, J, wavelet=wavelet) for x, J in zip(xs, depths)]
     return pool_wv(wvs, covs, min_dof=min_dof)
