@@ -295,10 +295,16 @@ def openvins_yaml(axes: Sequence[AxisNoise], rostopic: str = "/imu0") -> str:
 def pyins_parameters(axes: Sequence[AxisNoise]) -> dict[str, Any]:
     """Keyword arguments of pyins's inertial sensor model, one dict per sensor.
 
-    ``{"gyro": {"bias_sd": [...], "noise": [...], "bias_walk": [...]}, "accel": {...}}``, SI:
-    pass them as ``InertialSensorModel(**params["gyro"])`` (``EstimationModel`` in pyins
-    1.0) to its loosely-coupled filter.  Three values per sensor (its axes in column order)
-    when it has three axes, else one (the largest) for all three.
+    ``{"gyro": {"bias_sd": [...], "noise": [...], "bias_walk": [...], "axes": [...]},
+    "accel": {...}}``, SI: the first three are the keywords of pyins 1.0.1's
+    ``pyins.inertial_sensor.EstimationModel`` (its filters' sensor model; checked against the
+    installed package in the tests, whose simulator ``inertial_sensor.Parameters`` reproduces
+    the fitted model from the same ``noise`` and ``bias_walk``)::
+
+        gyro = EstimationModel(**{k: params["gyro"][k] for k in ("bias_sd", "noise", "bias_walk")})
+
+    Three values per sensor (its axes in column order) when it has three axes, else one (the
+    largest) for all three.
     """
     groups = _by_sensor(axes, [s for s in SENSORS if any(a.sensor == s for a in axes)] or ["gyro"])
     out: dict[str, Any] = {}

@@ -147,6 +147,30 @@ def test_pyins_and_stochmod_nav(fits):
     assert nav["axes"]["gyro_x"]["parameter_units"]["WN.sigma2"] == "(rad/s)^2"
 
 
+def test_pyins_reads_the_exported_parameters_as_the_fitted_model(fits):
+    """The peer's own model and simulator take the export's keywords (pyins 1.0.1,
+    ``inertial_sensor.EstimationModel`` and ``Parameters``); errors pyins simulates from them
+    have the fitted model's wavelet variance: a refit recovers the exported model."""
+    pyins_sensor = pytest.importorskip("pyins.inertial_sensor")
+    pd = pytest.importorskip("pandas")
+    axes = [noise_terms(fit, c.split("_")[0], column=c) for c, fit in fits.items()]
+    p = pyins_parameters(axes)
+    keywords = {k: p["gyro"][k] for k in ("bias_sd", "noise", "bias_walk")}
+    est = pyins_sensor.EstimationModel(**keywords)  # refuses a misnamed or misshaped keyword
+    assert est.n_states == 3 and np.allclose(np.diag(est.P), keywords["bias_sd"] ** 2)
+    assert np.allclose(est.q, keywords["bias_walk"]) and np.allclose(est.v, keywords["noise"])
+    n = 2**17
+    imu = pd.DataFrame(0.0, index=pd.Index(np.arange(n) / FS, name="time"),
+                       columns=["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"])
+    simulated = pyins_sensor.apply_imu_parameters(
+        imu, "rate", pyins_sensor.Parameters(noise=keywords["noise"],
+                                             bias_walk=keywords["bias_walk"], rng=3),
+        pyins_sensor.Parameters(rng=4))
+    refit = gmwm(simulated["gyro_x"].to_numpy(), "WN+RW", FS)
+    z = (refit.model.vector() - fits["gyro_x"].model.vector()) / refit.std_errors
+    assert np.all(np.abs(z) < 4), z
+
+
 def test_calibrate_export_writes_the_files(tmp_path, capsys):
     x = np.column_stack([_wn_rw(*TRUTH[c]).simulate(N, rng=20 + i) for i, c in enumerate(TRUTH)])
     path = tmp_path / "imu.npz"
