@@ -11,7 +11,6 @@ from typing import Any
 
 import attrs
 
-from stochmod._validation import check_freq
 from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import add_input_arguments, load_segments, print_json, to_jsonable
 from stochmod.cli.select import add_selection_arguments, select_columns, selection_options

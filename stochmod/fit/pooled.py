@@ -17,7 +17,7 @@ import numpy as np
 
 from stochmod._validation import as_signal, check_freq
 from stochmod.errors import InputError
-from stochmod.fit.weighting import chi2_variance, data_covariance, weighting_from_covariance
+from stochmod.fit.weighting import data_covariance
 from stochmod.signal.pooled import PooledWaveletVariance, pool_wv, replicate_levels
 from stochmod.signal.wavelet_variance import wvar
 
