@@ -27,6 +27,7 @@ import numpy as np
 __all__ = ["AVAILABLE", "haar_sweep", "haar_level_power_sums"]
 
 _BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
+_GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
 
 try:  # pragma: no cover - depends on the environment
     if os.environ.get("STOCHMOD_DISABLE_JIT", "") not in ("", "0"):
@@ -118,7 +119,8 @@ def haar_sweep(src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int,
 @_jit
 def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: int,
                           factor: float, core: float, sums: np.ndarray, big_idx: np.ndarray,
-                          big_w: np.ndarray) -> int:  # pragma: no cover
+                          big_w: np.ndarray, sub_stride: int, left: np.ndarray,
+                          right: np.ndarray) -> int:  # pragma: no cover
     """One Haar level of the robust estimator in one pass over ``src[:n_valid]`` (the
     unscaled sums ``V_{j-1}``).
 
@@ -128,6 +130,10 @@ def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: 
     level's sums ``dst[t] = src[t] + src[t + step]`` (`dst` must not overlap `src`: the loop
     then vectorises). Returns the number of coefficients above `core` (more than
     ``big_idx.size`` means some were not recorded).
+
+    Also copies the next level's subsample for its start (``robust_wv._start``) while the
+    block is in cache: ``left[k] = dst[k sub_stride]`` and
+    ``right[k] = dst[k sub_stride + 2 step]`` for k < ``left.size``.
     """
     m = n_valid - step
     cap = big_idx.size
@@ -145,27 +151,37 @@ def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: 
         b_ = src[s + step : e + step]
         d_ = dst[s:e]
         w_ = buf[:n]
-        for t in range(n):
-            a = a_[t]
-            b = b_[t]
-            d_[t] = a + b
-            w = (b - a) * factor
-            w_[t] = w
-            u = w * w
-            u = u if u <= core else 0.0
-            u2 = u * u
-            s1 += u
-            s2 += u2
-            s3 += u2 * u
-            s4 += u2 * u2
-            s5 += u2 * u2 * u
-        for t in range(n):
-            w = w_[t]
-            if w * w > core:
-                if nb < cap:
-                    big_idx[nb] = s + t
-                    big_w[nb] = w
-                nb += 1
+        for g in range(0, n, _GROUP):  # groups: only those with a coefficient outside are scanned
+            h = min(g + _GROUP, n)
+            outside = 0
+            for t in range(g, h):
+                a = a_[t]
+                b = b_[t]
+                d_[t] = a + b
+                w = (b - a) * factor
+                w_[t] = w
+                u = w * w
+                outside += u > core
+                u = u if u <= core else 0.0
+                u2 = u * u
+                s1 += u
+                s2 += u2
+                s3 += u2 * u
+                s4 += u2 * u2
+                s5 += u2 * u2 * u
+            if outside:
+                for t in range(g, h):
+                    w = w_[t]
+                    if w * w > core:
+                        if nb < cap:
+                            big_idx[nb] = s + t
+                            big_w[nb] = w
+                        nb += 1
+        for pos, out in ((0, left), (2 * step, right)):  # subsample positions in [s, e)
+            k = max(0, (s - pos + sub_stride - 1) // sub_stride)
+            while k < out.size and k * sub_stride + pos < e:
+                out[k] = d_[k * sub_stride + pos - s]
+                k += 1
     sums[1] += s1
     sums[2] += s2
     sums[3] += s3

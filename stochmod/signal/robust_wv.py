@@ -333,15 +333,16 @@ def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: f
     core and the sorted others (those inside the support for v form a prefix)."""
     powers = np.arange(6.0)
     ub_sorted = np.sort(ub)
-    table = np.zeros((ub.size + 1, 6))  # row k: power sums of the k smallest
-    for p in range(1, 6):
-        table[1:, p] = ub_sorted if p == 1 else table[1:, p - 1] * ub_sorted
-    cum = np.cumsum(table, axis=0)
+    table = np.empty((5, ub.size + 1))  # column k: power sums (p = 1..5) of the k smallest
+    table[:, 0] = 0.0
+    for p in range(5):
+        table[p, 1:] = ub_sorted if p == 0 else table[p - 1, 1:] * ub_sorted
+    cum = np.cumsum(table, axis=1)
 
     def score(v: float) -> float:
         k = int(np.searchsorted(ub_sorted, c2 * v, side="right"))
         poly = coef * v**-powers
-        total = float((sums[1:] + cum[k, 1:]) @ poly[1:])
+        total = float((sums[1:] + cum[:, k]) @ poly[1:])
         return (total + outside * (ub_sorted.size - k)) / M - delta
 
     return ub_sorted, score
@@ -499,7 +500,8 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     for j in range(1, levels + 1):
         step = 2 ** (j - 1)
         m = n_valid - step
-        sub = np.square(v[step : step + m : _subsample(m)] - v[:m : _subsample(m)])
+        if not jit or j == 1:
+            sub = np.square(v[step : step + m : _subsample(m)] - v[:m : _subsample(m)])
         scale_j = 2.0**-j  # W_j = d / 2^j: v0 of W_j, as m_scale computes it
         try:
             v0 = _start(sub) * scale_j**2
@@ -511,9 +513,13 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
         core = c2 * 0.5 * v0
         update = j < levels
         sums = np.zeros(6)
-        if jit:
+        if jit:  # the kernel also copies the next level's subsample
+            m_next = max(m - 2 * step, 0) if update else 0
+            stride = _subsample(m_next)
+            left, right = np.empty((2, -(-m_next // stride)))
             nb = haar_jit.haar_level_power_sums(v, other, n_valid, step, f, core, sums,
-                                                 big_idx, big_w)
+                                                 big_idx, big_w, stride, left, right)
+            sub = np.square(right - left)
             complete = nb <= big_idx.size
             idx, wb = big_idx[:nb].copy(), big_w[:nb].copy()
             if v is x:
@@ -728,8 +734,6 @@ def robust_wvar(
     ratio = np.full(n_levels, 1.0 / chi.efficiency)
     worst_t, worst_s = [], []
     m1 = n - filter_width(1, wavelet) + 1
-    size = scipy.fft.next_fast_len(2 * m1 - 1, real=True) if ci == "normal" else m1
-    buf = np.zeros(size)
     previous = m1
     lows: list[float] = []
     classical: list[int] = []
@@ -738,6 +742,7 @@ def robust_wvar(
     if haar_pass:  # Haar: the coefficients are not kept
         scales = _haar_scales(x, n_levels, chi)
     else:  # the coefficients in buf (the normal interval's spectra need them)
+        buf = np.zeros(scipy.fft.next_fast_len(2 * m1 - 1, real=True) if ci == "normal" else m1)
         scales = ((j, m, _level_scale(lambda m=m: m_scale(buf[:m], chi), j))
                   for j, _, m in pyramid(x, n_levels, wavelet, buf, sumsq=False))
     for j, m, est in scales:
