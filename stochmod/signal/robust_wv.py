@@ -285,19 +285,26 @@ class MScale:
     worst_score: np.ndarray = array_field()
 
 
-def _block_buffers(n: int, single: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Work buffers of :func:`_accumulate` for blocks of up to `n` coefficients."""
+def _block_buffers(n: int, single: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Work buffers of :func:`_accumulate` for blocks of up to `n` coefficients: the squares
+    (float64), the higher powers (float32 if `single`) and the flags."""
     n = min(_CHUNK, n)
-    return np.empty((3, n), dtype=np.float32 if single else np.float64), np.empty(n, dtype=bool)
+    return (np.empty(n), np.empty((2, n), dtype=np.float32 if single else np.float64),
+            np.empty(n, dtype=bool))
 
 
-def _accumulate(w: np.ndarray, core: float, sums: np.ndarray, bufs: np.ndarray,
-                flags: np.ndarray) -> np.ndarray:
+def _accumulate(w: np.ndarray, core: float, sums: np.ndarray,
+                bufs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
     """Add ``sum u^p`` (p = 1..5) of ``u = w^2`` over the block's ``u <= core`` to
-    ``sums[1:]``; return the block indices of the others (einsum dot products: no BLAS
-    threads, see :mod:`stochmod.signal.modwt`)."""
-    u, u2, u3 = bufs[:, : w.size]
-    np.square(w, out=u, casting="same_kind")
+    ``sums[1:]`` (in the precision of the power buffers, :func:`_block_buffers`); return the
+    block indices of the others (einsum dot products: no BLAS threads, see
+    :mod:`stochmod.signal.modwt`)."""
+    squares, powers, flags = bufs
+    n = w.size
+    u = np.square(w, out=squares[:n])
+    if powers.dtype != u.dtype:  # u = fl32(w^2): astype's contiguous cast beats a casting ufunc
+        u = u.astype(powers.dtype)
+    u2, u3 = powers[:, :n]
     local = np.flatnonzero(np.greater(u, core, out=flags[: w.size]))
     if local.size:
         u[local] = 0.0
@@ -317,9 +324,9 @@ def _power_sums(w: np.ndarray, scale: float, core: float
     ``w^2 <= core``, and the indices of the others; in chunks that stay in cache."""
     sums = np.zeros(6)
     big: list[np.ndarray] = []
-    bufs, flags = _block_buffers(w.size, w.size >= _SINGLE_MIN)
+    bufs = _block_buffers(w.size, w.size >= _SINGLE_MIN)
     for s in range(0, w.size, _CHUNK):
-        local = _accumulate(w[s : s + _CHUNK], core, sums, bufs, flags)
+        local = _accumulate(w[s : s + _CHUNK], core, sums, bufs)
         if local.size:
             big.append(local + s)
     sums /= scale ** np.arange(6.0)
@@ -328,18 +335,23 @@ def _power_sums(w: np.ndarray, scale: float, core: float
 
 
 def _sorted_score(ub: np.ndarray, sums: np.ndarray, coef: np.ndarray, outside: float,
-                  c2: float, delta: float, M: int) -> tuple[np.ndarray, Any]:
-    """The estimating function ``F(v) = mean(chi(u / v)) - delta`` from the power sums of the
-    core and the sorted others (those inside the support for v form a prefix)."""
+                  c2: float, delta: float, M: int, v_max: float = np.inf
+                  ) -> tuple[np.ndarray, Any]:
+    """The estimating function ``F(v) = mean(chi(u / v)) - delta`` for ``v <= v_max`` from the
+    power sums of the core and the sorted others (those inside the support for v form a
+    prefix; only the prefix that some ``v <= v_max`` reaches is summed)."""
     powers = np.arange(6.0)
     ub_sorted = np.sort(ub)
-    table = np.empty((5, ub.size + 1))  # column k: power sums (p = 1..5) of the k smallest
+    reach = int(np.searchsorted(ub_sorted, c2 * v_max, side="right"))
+    table = np.empty((5, reach + 1))  # column k: power sums (p = 1..5) of the k smallest
     table[:, 0] = 0.0
     for p in range(5):
-        table[p, 1:] = ub_sorted if p == 0 else table[p - 1, 1:] * ub_sorted
+        table[p, 1:] = ub_sorted[:reach] if p == 0 else table[p - 1, 1:] * ub_sorted[:reach]
     cum = np.cumsum(table, axis=1)
 
     def score(v: float) -> float:
+        if not v <= v_max:
+            raise ValueError(f"the score was set up for v <= {v_max}, not {v}")
         k = int(np.searchsorted(ub_sorted, c2 * v, side="right"))
         poly = coef * v**-powers
         total = float((sums[1:] + cum[:, k]) @ poly[1:])
@@ -409,7 +421,7 @@ def _solve(first: tuple[np.ndarray, np.ndarray, np.ndarray], full: Callable[[], 
     sums, idx, wb = first
     for _ in range(60):
         ub = np.square(wb) * (1.0 / v0)  # u / v0 of the coefficients outside the core
-        ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M)
+        ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M, hi)
         f_lo, f_hi = score(lo), score(hi)
         if f_lo > 0 and f_hi < 0:
             v = optimize.brentq(score, lo, hi, xtol=1e-15, rtol=1e-13)
@@ -526,11 +538,11 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
                 v = np.empty(n_valid - 2)  # the shorter of the two work arrays from now on
             v, other = other, v
         else:
-            blocks, flags = _block_buffers(m, m >= _SINGLE_MIN)
+            blocks = _block_buffers(m, m >= _SINGLE_MIN)
             idx_parts, w_parts = [], []
             for s, d in modwt.haar_differences(v, n_valid, step, update, scratch):
                 np.multiply(d, f, out=d)
-                local = _accumulate(d, core, sums, blocks, flags)
+                local = _accumulate(d, core, sums, blocks)
                 if local.size:
                     idx_parts.append(local + s)
                     w_parts.append(d[local])
