@@ -127,8 +127,9 @@ def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: 
     With ``w_t = (src[t + step] - src[t]) * factor`` and ``u = w^2``, accumulates
     ``sum u^p`` (p = 1..5) over ``u <= core`` into ``sums[1:6]`` (float64), records the index
     and value of the others in `big_idx` / `big_w` (as many as fit) and writes the next
-    level's sums ``dst[t] = src[t] + src[t + step]`` (`dst` must not overlap `src`: the loop
-    then vectorises). Returns the number of coefficients above `core` (more than
+    level's sums ``dst[t] = src[t] + src[t + step]``, block by block through a buffer, so
+    that `dst` may be `src` itself (in place: a block is written back after it was read, and
+    its lines are still in cache). Returns the number of coefficients above `core` (more than
     ``big_idx.size`` means some were not recorded).
 
     Also copies the next level's subsample for its start (``robust_wv._start``) while the
@@ -144,12 +145,13 @@ def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: 
     s4 = 0.0
     s5 = 0.0
     buf = np.empty(_BLOCK)
+    sums_buf = np.empty(_BLOCK)
     for s in range(0, m, _BLOCK):
         e = min(s + _BLOCK, m)
         n = e - s
         a_ = src[s:e]  # slices indexed from 0: no wrap-around checks, so LLVM vectorises
         b_ = src[s + step : e + step]
-        d_ = dst[s:e]
+        d_ = sums_buf[:n]
         w_ = buf[:n]
         for g in range(0, n, _GROUP):  # groups: only those with a coefficient outside are scanned
             h = min(g + _GROUP, n)
@@ -177,6 +179,9 @@ def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: 
                             big_idx[nb] = s + t
                             big_w[nb] = w
                         nb += 1
+        out_ = dst[s:e]
+        for t in range(n):
+            out_[t] = d_[t]
         for pos, out in ((0, left), (2 * step, right)):  # subsample positions in [s, e)
             k = max(0, (s - pos + sub_stride - 1) // sub_stride)
             while k < out.size and k * sub_stride + pos < e:

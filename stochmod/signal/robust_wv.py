@@ -501,8 +501,8 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     c2 = rho.c * rho.c
     n_valid = x.size
     jit = haar_jit.AVAILABLE
-    if jit:  # V_{j-1} in v, V_j to other (swapped after each level); level 1 reads x
-        v, other = x, np.empty(n_valid - 1)
+    if jit:  # level 1 reads x and writes V_1 to the work array; then in place
+        v, work = x, np.empty(n_valid - 1)
         # room for the coefficients outside the core: an outlier touches 2^j of them
         big_idx = np.empty(max(1024, n_valid // 8), dtype=np.int64)
         big_w = np.empty(big_idx.size)
@@ -529,14 +529,12 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
             m_next = max(m - 2 * step, 0) if update else 0
             stride = _subsample(m_next)
             left, right = np.empty((2, -(-m_next // stride)))
-            nb = haar_jit.haar_level_power_sums(v, other, n_valid, step, f, core, sums,
+            nb = haar_jit.haar_level_power_sums(v, work, n_valid, step, f, core, sums,
                                                  big_idx, big_w, stride, left, right)
             sub = np.square(right - left)
             complete = nb <= big_idx.size
             idx, wb = big_idx[:nb].copy(), big_w[:nb].copy()
-            if v is x:
-                v = np.empty(n_valid - 2)  # the shorter of the two work arrays from now on
-            v, other = other, v
+            v = work
         else:
             blocks = _block_buffers(m, m >= _SINGLE_MIN)
             idx_parts, w_parts = [], []
