@@ -41,9 +41,14 @@ AVAILABLE = numba is not None
 
 
 def _jit(fn: Any) -> Any:
+    """Compile lazily (on the first call; the machine code is cached on disk when numba finds a
+    writable cache directory, else compiled again in each process)."""
     if numba is None:  # pragma: no cover - depends on the environment
         return fn
-    return numba.njit(cache=True, nogil=True, fastmath={"reassoc"})(fn)
+    try:
+        return numba.njit(cache=True, nogil=True, fastmath={"reassoc"})(fn)
+    except RuntimeError:  # pragma: no cover - no writable cache location (read-only install)
+        return numba.njit(cache=False, nogil=True, fastmath={"reassoc"})(fn)
 
 
 @_jit

@@ -49,7 +49,10 @@ start ``nu_0`` (median of ``W^2`` on a subsample / 0.4549), the power sums of th
 coefficients with ``W^2 <= c^2 nu_0 / 2`` (certainly inside the biweight's support for any
 root in ``[nu_0 / 2, 2 nu_0]``: ``chi`` is a polynomial there) and the indices of the few
 others; the root is then found exactly (Brent) on this summary, and the bracket widened if the
-root is outside it.
+root is outside it. For Haar with chi-square intervals the pass is the pyramid's own level
+step (:func:`_haar_scales`: no coefficient array), in numpy or, with numba, one compiled loop
+(:mod:`stochmod.signal.haar_jit`). The coefficients are scaled by a power of two so that the
+powers up to ``u^5`` stay in float32's range whatever the signal's unit.
 """
 
 from __future__ import annotations
@@ -491,10 +494,10 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     equation has no root), each level in one pass over the pyramid's work array.
 
     The M-scale runs on the unscaled differences ``d = V_{j-1,t+s} - V_{j-1,t}``
-    (``W_j = d / 2^j`` up to the sign) times a power of two f (:func:`_normaliser`): every
-    value is an exact power-of-two multiple of the one :func:`m_scale` sees, so the result
-    is the same, and it is divided back by ``(2^j f)^2`` exactly. The start nu_0 comes from
-    a subsample of d taken before the pass; the pass then computes d block by block, adds
+    (``W_j = d / 2^j`` up to the sign) times the power of two ``2^-j norm``
+    (:func:`_normaliser`): every value is ``norm`` times the one :func:`m_scale` sees, so the
+    result is the same, divided back by ``norm^2`` exactly. The start nu_0 comes from a
+    subsample of d taken before the pass (by the compiled loop of the previous level); the pass then computes d block by block, adds
     the block's power sums (:func:`_accumulate`, or one compiled loop,
     :mod:`stochmod.signal.haar_jit`) and updates the work array to V_j. The coefficients are
     never stored: where the first bracket fails (rare), they are computed again.
