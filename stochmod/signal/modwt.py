@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_positive_int
 from stochmod.errors import InputError
+from stochmod.signal import haar_jit
 
 __all__ = [
     "modwt_filters",
@@ -46,6 +47,7 @@ __all__ = [
     "modwt_coefficients",
     "iter_modwt",
     "pyramid",
+    "haar_differences",
     "check_level",
 ]
 
@@ -349,6 +351,25 @@ def _haar_sweep(
     return totals
 
 
+def haar_differences(
+    v: np.ndarray, n_valid: int, step: int, update: bool, scratch: np.ndarray
+) -> Iterator[tuple[int, np.ndarray]]:
+    """One Haar level over the unscaled sums ``V = v[:n_valid]``, block by block, in place.
+
+    Yields ``(s, d)`` with ``d = V[s + step + i] - V[s + i]`` (``2^j W_j`` up to the sign)
+    for the ``M = n_valid - step`` interior positions, ``_CHUNK`` at a time, in a view of
+    `scratch` that the caller may overwrite. After each yield, if `update`, ``v[s:s+len(d)]``
+    becomes ``V[s + i] + V[s + step + i]`` (the next level's sums): only positions the later
+    blocks no longer read.
+    """
+    m = n_valid - step
+    for s in range(0, m, _CHUNK):
+        e = min(s + _CHUNK, m)
+        yield s, np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
+        if update:
+            np.add(v[s:e], v[s + step : e + step], out=v[s:e])
+
+
 def pyramid(
     x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None,
     sumsq: bool = True,
@@ -380,18 +401,15 @@ def pyramid(
         update = j < levels  # the scaling coefficients are not needed after the last level
         rows = coef if update else coef[:1]
         total = 0.0
-        for s in range(0, m, _CHUNK):
-            e = min(s + _CHUNK, m)
-            if haar:
-                # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
-                w = np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
+        if haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
+            for s, w in haar_differences(v, n_valid, step, update, scratch):
                 if sumsq:
                     total += _sumsq(w)
                 if w_out is not None:
-                    np.multiply(w, sign * 0.5**j, out=w_out[s:e])
-                if update:
-                    np.add(v[s:e], v[s + step : e + step], out=v[s:e])
-            else:
+                    np.multiply(w, sign * 0.5**j, out=w_out[s : s + w.size])
+        else:
+            for s in range(0, m, _CHUNK):
+                e = min(s + _CHUNK, m)
                 view = as_strided(v[s:], shape=(width1, e - s), strides=(step * item, item))
                 out = np.einsum("ij,jk->ik", rows, view)  # no BLAS threads (see _DOT)
                 if sumsq:
@@ -413,12 +431,17 @@ def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]
     """
     v = np.empty(x.size)
     size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
-    scratch, local = np.empty(size), np.empty(size)
+    bufs = np.empty((2, size))  # the block buffers (numpy: scratch and local)
+    scratch, local = bufs
     src, n_valid, j = x, x.size, 1
     while j <= levels:
         k = _haar_block(levels, j, _CHUNK)
         last = j + k - 1 == levels
-        totals = _haar_sweep(src, v, n_valid, j, k, last, scratch, local)
+        if haar_jit.AVAILABLE:
+            totals = np.empty(k)
+            haar_jit.haar_sweep(src, v, n_valid, j, k, last, bufs, _CHUNK, totals)
+        else:
+            totals = _haar_sweep(src, v, n_valid, j, k, last, scratch, local)
         for i, total in enumerate(totals):
             n_valid -= 2 ** (j - 1 + i)
             yield j + i, total * 0.25 ** (j + i), n_valid
