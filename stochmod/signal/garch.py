@@ -40,6 +40,7 @@ __all__ = ["GarchFit", "fit_garch", "garch_loglikelihood", "garch_variance", "se
            "backcast"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
+_LOG_MAX = math.log(np.finfo(np.float64).max)
 _BACKCAST_DECAY = 0.94
 _BACKCAST_SAMPLES = 75
 _GRID_SAMPLES = 100_000
@@ -138,7 +139,9 @@ def _to_theta(z: np.ndarray) -> np.ndarray:
     logits = np.concatenate([z[1:], [0.0]])
     e = np.exp(logits - logits.max())
     share = e / e.sum()
-    return np.concatenate([[math.exp(z[0])], share[:-1]])
+    # a step far out may overflow omega: inf, which the callers' finiteness check refuses
+    omega = math.exp(z[0]) if z[0] < _LOG_MAX else math.inf
+    return np.concatenate([[omega], share[:-1]])
 
 
 def _from_theta(theta: np.ndarray) -> np.ndarray:
