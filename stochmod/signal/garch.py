@@ -193,10 +193,12 @@ class _Likelihood:
         """
         return self.terms(theta, s2)[:4]
 
-    def terms(self, theta: np.ndarray, s2: np.ndarray | None = None, hessian: bool = False
+    def terms(self, theta: np.ndarray, s2: np.ndarray | None = None, hessian: bool = False,
+              ll: float | None = None
               ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """As :meth:`full`, plus the observed information ``-d^2 loglik / d theta^2`` (k, k)
-        when `hessian` (else None).
+        when `hessian` (else None). `ll`, the log-likelihood at `theta` with `s2` when already
+        known, saves its sum.
 
         With ``u_t = (1 - r_t) / sigma_t^2``, ``r_t = x_t^2 / sigma_t^2`` and ``D_t`` the
         derivatives of ``sigma_t^2``: score ``-1/2 sum u_t D_t``; the observed information is
@@ -218,7 +220,8 @@ class _Likelihood:
         scaled = ds2 * inv
         score = -0.5 * (scaled @ (1.0 - ratio))
         info = 0.5 * (scaled @ scaled.T)
-        ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
+        if ll is None:
+            ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
         observed = None
         if hessian:
             observed = 0.5 * ((scaled * (2.0 * ratio - 1.0)) @ scaled.T)
@@ -341,7 +344,7 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
                                                             ll_new, s2_new)
         gain = ll_new - ll
         z, theta = z_new, theta_new
-        ll, score, info, s2, observed = lik.terms(theta, s2_new, hessian=True)
+        ll, score, info, s2, observed = lik.terms(theta, s2_new, hessian=True, ll=ll_new)
         lam = max(lam / 10.0, 1e-12)
         if predicted < tol and gain <= tol:
             return theta, it, True, (ll, info, s2)
