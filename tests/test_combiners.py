@@ -277,8 +277,8 @@ def test_result_summary_and_bad_input() -> None:
 
 def test_garch_workers_give_the_serial_result() -> None:
     """The per-sensor fits in 2 processes (automatic orders, triads) equal the serial run."""
-    x, _ = redundant_gyros(5.0, length=3000)
-    triads = np.stack([redundant_gyros(a, length=3000, seed=20 + a)[0] for a in (0, 5, 10)], axis=-1)
+    x, _ = redundant_gyros(5.0, length=2000)
+    triads = np.stack([redundant_gyros(a, length=2000, seed=20 + a)[0] for a in (0, 5, 10)], axis=-1)
     serial = stochmod.combine(triads, "garch")
     parallel = stochmod.combine(triads, "garch", workers=2)
     for field in ("signal", "weights", "variance", "sensor_variance"):

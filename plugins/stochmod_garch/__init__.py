@@ -130,6 +130,8 @@ class GarchCombiner:
         common = (arma, garch, max_order, lags, select_samples)
         args = [(s, i, j, *common) for s, (i, j) in zip(series, cols)]
         if workers > 1 and len(cols) > 1:
+            # the worker processes inherit this one's libraries and their settings (BLAS
+            # threads included), so their sums round as here: the serial result exactly
             with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(cols))) as pool:
                 outs = list(pool.map(_fit_axis, *zip(*args)))
         else:
