@@ -5,8 +5,8 @@ Run: ``python bench/bench_combine.py [T [WORKERS]]`` (defaults 1,000,000 per axi
 modulated in time, sensor 0 perturbed on x as eq. 13 with a = 5 (Waegli et al. 2010). The
 timed call is ``stochmod.combine(x, "garch", workers=2)`` with its defaults (ARMA orders by AIC
 on a prefix, GARCH grown until Engle's LM test passes: 12 ARMA + GARCH fits in 2 processes),
-compared in the same run with the serial call (same result) and the plain mean; goal under
-30 s on the 2-core machine. Also prints each method's
+compared in the same run with the serial call (the same result: the largest relative
+difference is printed) and the plain mean; goal under 30 s on the 2-core machine. Also prints each method's
 error standard deviation against the simulated truth. The machine is shared: times are noisy.
 """
 
@@ -46,12 +46,13 @@ def main(length: int = 1_000_000, workers: int = 2) -> None:
     t0, c0 = time.perf_counter(), time.process_time()
     serial = stochmod.combine(x, "garch")
     t_ser, c_ser = time.perf_counter() - t0, time.process_time() - c0
-    same = all(np.array_equal(getattr(garch, f), getattr(serial, f)) for f in ("signal", "weights", "variance"))
+    diff = max(float(np.max(np.abs(getattr(garch, f) - getattr(serial, f)) / np.abs(getattr(serial, f))))
+               for f in ("signal", "weights", "variance"))
     print(f"4 sensors x 3 axes x {length:,} samples (12 ARMA + GARCH fits); load average "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"stochmod.combine(x, 'garch', workers={workers})  {t_par:7.2f} s wall   (goal < 30 s)")
     print(f"stochmod.combine(x, 'garch')             {t_ser:7.2f} s wall, {c_ser:7.2f} s CPU   "
-          f"(serial / {workers} workers: {t_ser / t_par:.2f} x; same result: {same})")
+          f"(serial / {workers} workers: {t_ser / t_par:.2f} x; largest relative difference {diff:.1e})")
     print(f"stochmod.combine(x, 'mean')              {t_mean:7.2f} s")
     print(f"orders: {garch.info['orders']}")
     for name, res in (("mean", mean), ("garch", garch)):
