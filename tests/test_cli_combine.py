@@ -55,7 +55,7 @@ def test_combine_garch_prints_volatility_parameters(sensors, tmp_path: Path, cap
     files, data = sensors
     out = tmp_path / "g.npz"
     assert main(["combine", *files, "--method", "garch", "--arma", "0", "0", "--garch", "1", "1",
-                 "--column", "gyro_x", "--out", str(out), "--json"]) == 0
+                 "--column", "gyro_x", "--out", str(out), "--json", "--workers", "2"]) == 0
     report = json.loads(capsys.readouterr().out)
     ref = stochmod.combine(data[..., 0], "garch", arma=(0, 0), garch=(1, 1))
     np.testing.assert_allclose(report["columns"]["gyro_x"]["mean_weights"], ref.weights.mean(axis=1),
@@ -100,6 +100,7 @@ def test_bad_input(sensors, tmp_path: Path, capsys) -> None:
         ([*files, "--column", "accel_z"], "no column"),
         ([*files, "--method", "nope"], "unknown --method"),
         ([*files, "--method", "inverse-variance", "--calibration", "x.json"], "1 --calibration"),
+        ([*files, "--method", "mean", "--workers", "2"], "--workers applies to --method garch"),
     ]
     for argv, match in cases:
         assert main(["combine", *argv, "--out", str(tmp_path / "o.npz"), "--no-plots"]) == 2

@@ -273,3 +273,19 @@ def test_result_summary_and_bad_input() -> None:
         stochmod.combine(x, "mean", window=3)
     with pytest.raises(InputError, match="pair"):
         stochmod.combine(x, "garch", arma=3)
+
+
+def test_garch_workers_give_the_serial_result() -> None:
+    """The per-sensor fits in 2 processes (automatic orders, triads) equal the serial run."""
+    x, _ = redundant_gyros(5.0, length=2000)
+    triads = np.stack([redundant_gyros(a, length=2000, seed=20 + a)[0] for a in (0, 5, 10)], axis=-1)
+    serial = stochmod.combine(triads, "garch")
+    parallel = stochmod.combine(triads, "garch", workers=2)
+    for field in ("signal", "weights", "variance", "sensor_variance"):
+        np.testing.assert_array_equal(getattr(parallel, field), getattr(serial, field))
+    assert parallel.info == serial.info
+    for a, b in zip(parallel.sensors, serial.sensors):
+        assert (a.sensor, a.axis, a.arma.order, a.garch.order) == (b.sensor, b.axis, b.arma.order, b.garch.order)
+        np.testing.assert_array_equal(a.garch.params, b.garch.params)
+    with pytest.raises(InputError, match="workers"):
+        stochmod.combine(x, "garch", workers=0, **FAST_GARCH)

@@ -95,6 +95,33 @@ def test_score_and_information_against_finite_differences() -> None:
     np.testing.assert_allclose(info, 0.5 * scaled @ scaled.T, rtol=1e-6)
 
 
+
+@pytest.mark.parametrize("p, q, theta", [(2, 1, [0.08, 0.12, 0.04, 0.72]), (1, 2, [0.08, 0.12, 0.4, 0.3]),
+                                         (2, 0, [0.5, 0.2, 0.1])])
+def test_observed_information_and_its_z_form_against_finite_differences(p, q, theta) -> None:
+    """The Newton matrix: -d(score)/d(theta) by central differences, and its form in the
+    unconstrained coordinates z against differences of the z-gradient."""
+    from stochmod.signal.garch import _curvature, _from_theta, _Likelihood, _theta_jacobian, _to_theta
+
+    x = simulate_garch(3000, 0.05, [0.1, 0.05], [0.7], seed=4)
+    lik = _Likelihood(x / np.sqrt(np.mean(x * x)), p, q)
+    theta = np.array(theta)
+    _, score, _, _, observed = lik.terms(theta, hessian=True)
+    h = 1e-6
+    numeric = np.array([(lik.full(theta + h * e)[1] - lik.full(theta - h * e)[1]) / (2 * h)
+                        for e in np.eye(theta.size)])
+    np.testing.assert_allclose(observed, -numeric, rtol=1e-6, atol=1e-6 * np.abs(observed).max())
+    z = _from_theta(theta)
+    in_z = _theta_jacobian(z, theta).T @ observed @ _theta_jacobian(z, theta) - _curvature(theta, score)
+
+    def grad_z(zz: np.ndarray) -> np.ndarray:
+        th = _to_theta(zz)
+        return _theta_jacobian(zz, th).T @ lik.full(th)[1]
+
+    numeric_z = np.array([(grad_z(z + h * e) - grad_z(z - h * e)) / (2 * h) for e in np.eye(z.size)])
+    np.testing.assert_allclose(in_z, -numeric_z, rtol=1e-5, atol=1e-6 * np.abs(in_z).max())
+
+
 def test_table2_scale_persistent_garch_is_recovered() -> None:
     """Seed Table 2: alpha0 1.3e-7, alpha1 0.0175, beta1 0.98 at N = 300,000, data as given."""
     truth = (1.3e-7, 0.0175, 0.98)

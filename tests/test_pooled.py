@@ -196,3 +196,24 @@ def test_calibrate_split_gaps_pools_the_segments(tmp_path: Path, capsys) -> None
     np.testing.assert_allclose(got, direct.best.model.vector(), rtol=1e-6)
     z = (direct.best.model.vector() - model.vector()) / direct.best.std_errors
     assert np.all(np.abs(z) < 4), z
+
+
+@pytest.mark.slow
+def test_jtest_on_pooled_replicates_holds_its_level() -> None:
+    """Size of the J-test on pooled fits of the true structure: 40 seeded replicate pairs.
+
+    Under the null the p-values are uniform: the count below 0.05 is Binomial(40, 0.05) (mean 2;
+    P(count >= 9) < 0.001) and a Kolmogorov-Smirnov test does not reject uniformity.
+    bench/mc_pooled_jtest.py runs the larger study (100 pairs: 5 % and 0 % rejected at the 5 %
+    and 1 % levels).
+    """
+    from scipy import stats
+
+    model = stochmod.model_from_spec(TRUE, FREQ)
+    pvalues = []
+    for k in range(40):
+        fit = stochmod.gmwm([model.simulate(2**14, rng=7 + 2 * k + i) for i in range(2)], "GM+WN", FREQ)
+        pvalues.append(fit.jtest.pvalue)
+    pvalues = np.array(pvalues)
+    assert np.sum(pvalues < 0.05) <= 8, np.sort(pvalues)[:10]
+    assert stats.kstest(pvalues, "uniform").pvalue > 0.001

@@ -17,6 +17,7 @@ The estimators are the core's :func:`stochmod.signal.arma.select_arma` and
 
 from __future__ import annotations
 
+import concurrent.futures
 from typing import Any, ClassVar
 
 import attrs
@@ -89,7 +90,8 @@ class GarchCombiner:
                               "time); residuals from the mean stand in for errors")
 
     def combine(self, x: Any, *, arma: Any = "aic", garch: Any = "lm", max_order: int = 2,
-                lags: int = 10, select_samples: int = 2**15) -> CombinationResult:
+                lags: int = 10, select_samples: int = 2**15, workers: int | None = None
+                ) -> CombinationResult:
         """Fit each sensor and axis, then weight by the inverse conditional variances.
 
         Parameters
@@ -107,8 +109,12 @@ class GarchCombiner:
             Lags of Engle's LM test.
         select_samples : int
             Samples of the AIC order choice (the first ones; default 2^15).
+        workers : int, optional
+            Processes fitting the sensors (and axes) in parallel; None or 1: one after another
+            in this process. The fits are independent, so the result is the serial one.
         """
         select_samples = check_positive_int(select_samples, name="select_samples", minimum=100)
+        workers = 1 if workers is None else check_positive_int(workers, name="workers")
         x = as_sensor_array(x, min_length=100)
         n = x.shape[0]
         r = residuals_from_mean(x)
@@ -119,12 +125,21 @@ class GarchCombiner:
                 variance=np.zeros(x.shape[1:]), method=self.name, assumes=self.assumes,
                 sensor_variance=np.zeros(x.shape), info={"note": "identical sensors"})
         cols = [(i, j) for i in range(n) for j in (range(x.shape[2]) if triad else [None])]
+        index = [(i, slice(None), j) if triad else (i,) for i, j in cols]
+        series = [np.ascontiguousarray(r[idx]) for idx in index]
+        common = (arma, garch, max_order, lags, select_samples)
+        args = [(s, i, j, *common) for s, (i, j) in zip(series, cols)]
+        if workers > 1 and len(cols) > 1:
+            # the worker processes inherit this one's libraries and their settings (BLAS
+            # threads included), so their sums round as here: the serial result exactly
+            with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(cols))) as pool:
+                outs = list(pool.map(_fit_axis, *zip(*args)))
+        else:
+            outs = [_fit_axis(*a) for a in args]
         mean = np.empty_like(x)
         s2 = np.empty_like(x)
         fits = []
-        for i, j in cols:
-            idx = (i, slice(None), j) if triad else (i,)
-            m, v, fit = _fit_axis(r[idx], i, j, arma, garch, max_order, lags, select_samples)
+        for idx, (m, v, fit) in zip(index, outs):
             mean[idx], s2[idx] = m, v
             fits.append(fit)
         inv = 1.0 / s2

@@ -59,6 +59,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="garch: fixed ARMA orders (default: chosen by AIC)")
     p.add_argument("--garch", type=int, nargs=2, default=None, metavar=("P", "Q"),
                    help="garch: fixed GARCH orders (default: grown until Engle's LM test passes)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="garch: fit the sensors in N processes at once (same result as serial)")
     p.add_argument("--out", default="synthetic.npz", help="output .npz (default synthetic.npz)")
     p.add_argument("--no-plots", action="store_true", help="do not write the figure")
     p.add_argument("--json", action="store_true", help="print machine-readable JSON")
@@ -96,6 +98,10 @@ def combiner_options(args: argparse.Namespace) -> dict[str, Any]:
         opts["arma"] = tuple(args.arma)
     if args.garch is not None:
         opts["garch"] = tuple(args.garch)
+    if getattr(args, "workers", None) is not None:
+        if args.method != "garch":
+            raise InputError(f"--workers applies to --method garch, not {args.method!r}")
+        opts["workers"] = args.workers
     return opts
 
 

@@ -74,12 +74,17 @@ def arch_lm_test(z: ArrayLike, lags: int = 10) -> ArchLMTest:
     if np.ptp(y) == 0:
         raise InputError("z^2 is constant: the LM regression has no variance to explain")
     nobs = y.size
-    # centred regressors (the constant drops out); explained sum of squares b' X'y from the
-    # normal equations (one matrix product), solved by Cholesky: R^2 = ESS / SST
-    design = np.lib.stride_tricks.sliding_window_view(z2[:-1], lags)[:, ::-1]
-    design = design - design.mean(axis=0)
+    # centred regressors (the constant drops out): the Gram matrix of the lags from dot products
+    # of shifted views (no T x m copy), X'y with the centred y alone (its sum is zero);
+    # explained sum of squares b' X'y solved by Cholesky: R^2 = ESS / SST
+    lag = [z2[lags - i : z2.size - i] for i in range(1, lags + 1)]
+    means = np.array([v.mean() for v in lag])
+    gram = np.empty((lags, lags))
+    for i in range(lags):
+        for k in range(i, lags):
+            gram[i, k] = gram[k, i] = lag[i] @ lag[k] - nobs * means[i] * means[k]
     yc = y - y.mean()
-    xty = yc @ design
-    coef = linalg.solve(design.T @ design, xty, assume_a="pos", check_finite=False)
+    xty = np.array([yc @ v for v in lag])
+    coef = linalg.solve(gram, xty, assume_a="pos", check_finite=False)
     stat = nobs * float(coef @ xty) / float(yc @ yc)
     return ArchLMTest(statistic=stat, pvalue=float(stats.chi2.sf(stat, lags)), lags=lags, nobs=nobs)

@@ -40,10 +40,13 @@ __all__ = ["GarchFit", "fit_garch", "garch_loglikelihood", "garch_variance", "se
            "backcast"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
+_LOG_MAX = math.log(np.finfo(np.float64).max)
 _BACKCAST_DECAY = 0.94
 _BACKCAST_SAMPLES = 75
 _GRID_SAMPLES = 100_000
 _PREFIX_SAMPLES = 200_000
+_EXTRAPOLATE = 0.55  # gain / predicted gain of a step above which longer steps are tried
+_EXTRAPOLATE_STEPS = 6
 
 
 def backcast(x2: np.ndarray) -> float:
@@ -74,19 +77,18 @@ def _recursion(omega: float, alpha: np.ndarray, beta: np.ndarray, x2: np.ndarray
     return lfilter([1.0], den, u, zi=zi)[0]
 
 
-def _derivatives(alpha: np.ndarray, beta: np.ndarray, x2: np.ndarray, s2: np.ndarray,
-                 bc: float) -> np.ndarray:
-    """``d sigma_t^2 / d (omega, alpha, beta)``, shape (1 + p + q, T) (zero pre-sample)."""
-    p, q = alpha.size, beta.size
-    drive = np.empty((1 + p + q, x2.size))
-    drive[0] = 1.0
-    for i in range(1, p + 1):
-        drive[i] = _lagged(x2, i, bc)
-    for j in range(1, q + 1):
-        drive[p + j] = _lagged(s2, j, bc)
-    if q == 0:
+def _derivatives(beta: np.ndarray, drive: np.ndarray) -> np.ndarray:
+    """``d sigma_t^2 / d (omega, alpha, beta)`` from the rows `drive` (1 + p + q, T) of the
+    recursion's inputs ``(1, x^2_{t-i}, sigma^2_{t-j})``: the same IIR filter (zero pre-sample)."""
+    if beta.size == 0:
         return drive
     return lfilter([1.0], np.concatenate([[1.0], -beta]), drive, axis=1)
+
+
+def _adjoint_filter(beta: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``F^T u`` for the causal filter ``F = 1 / (1 - sum_j beta_j B^j)`` (zero pre-sample):
+    ``sum_t u_t (F d)_t = sum_t (F^T u)_t d_t`` for every series d (the filter run backwards)."""
+    return lfilter([1.0], np.concatenate([[1.0], -beta]), u[::-1])[::-1]
 
 
 def _loglik(s2: np.ndarray, x2: np.ndarray) -> float:
@@ -137,7 +139,9 @@ def _to_theta(z: np.ndarray) -> np.ndarray:
     logits = np.concatenate([z[1:], [0.0]])
     e = np.exp(logits - logits.max())
     share = e / e.sum()
-    return np.concatenate([[math.exp(z[0])], share[:-1]])
+    # a step far out may overflow omega: inf, which the callers' finiteness check refuses
+    omega = math.exp(z[0]) if z[0] < _LOG_MAX else math.inf
+    return np.concatenate([[omega], share[:-1]])
 
 
 def _from_theta(theta: np.ndarray) -> np.ndarray:
@@ -158,32 +162,77 @@ def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
 
 
 class _Likelihood:
-    """Log-likelihood, score and Fisher information of scaled data (unit mean square)."""
+    """Log-likelihood, score, expected information and observed Hessian of scaled data."""
 
     def __init__(self, y: np.ndarray, p: int, q: int):
         self.x2 = y * y
         self.bc = backcast(self.x2)
         self.p, self.q = p, q
+        # the rows of the recursion's inputs that do not depend on the parameters
+        self._drive = np.empty((1 + p + q, self.x2.size))
+        self._drive[0] = 1.0
+        for i in range(1, p + 1):
+            self._drive[i] = _lagged(self.x2, i, self.bc)
 
-    def value(self, theta: np.ndarray) -> float:
+    def variance(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
+        """Log-likelihood (-inf where a variance is not positive and finite) and sigma^2 (T,)."""
         omega, alpha, beta = _split(theta, self.p)
         s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
         if not np.all(s2 > 0) or not np.all(np.isfinite(s2)):
-            return -math.inf
-        return _loglik(s2, self.x2)
+            return -math.inf, s2
+        return _loglik(s2, self.x2), s2
 
-    def full(self, theta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """Log-likelihood, score (k,), expected information (k, k) and sigma^2 (T,)."""
+    def value(self, theta: np.ndarray) -> float:
+        return self.variance(theta)[0]
+
+    def full(self, theta: np.ndarray, s2: np.ndarray | None = None
+             ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """Log-likelihood, score (k,), expected information (k, k) and sigma^2 (T,).
+
+        `s2`, the variances at `theta` when already known, saves the recursion.
+        """
+        return self.terms(theta, s2)[:4]
+
+    def terms(self, theta: np.ndarray, s2: np.ndarray | None = None, hessian: bool = False,
+              ll: float | None = None
+              ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """As :meth:`full`, plus the observed information ``-d^2 loglik / d theta^2`` (k, k)
+        when `hessian` (else None). `ll`, the log-likelihood at `theta` with `s2` when already
+        known, saves its sum.
+
+        With ``u_t = (1 - r_t) / sigma_t^2``, ``r_t = x_t^2 / sigma_t^2`` and ``D_t`` the
+        derivatives of ``sigma_t^2``: score ``-1/2 sum u_t D_t``; the observed information is
+        ``1/2 sum [(2 r_t - 1) D_t D_t^T / sigma_t^4 + u_t d^2 sigma_t^2]``. The second
+        derivatives obey the recursion driven by ``D_{t-j}`` in the ``beta_j`` rows and columns,
+        so ``sum_t u_t d^2 sigma_t^2`` needs only the adjoint filter of u (one more filter).
+        """
         omega, alpha, beta = _split(theta, self.p)
-        s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
-        ds2 = _derivatives(alpha, beta, self.x2, s2, self.bc)
+        if s2 is None:
+            s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
+        p, q = self.p, self.q
+        drive = self._drive  # the beta rows are rewritten in place (lfilter returns a new array)
+        for j in range(1, q + 1):
+            drive[p + j, :j] = self.bc
+            drive[p + j, j:] = s2[:-j]
+        ds2 = _derivatives(beta, drive)
         inv = 1.0 / s2
         ratio = self.x2 * inv
-        ds2 *= inv
-        score = -0.5 * (ds2 @ (1.0 - ratio))
-        info = 0.5 * (ds2 @ ds2.T)
-        ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
-        return ll, score, info, s2
+        scaled = ds2 * inv
+        score = -0.5 * (scaled @ (1.0 - ratio))
+        info = 0.5 * (scaled @ scaled.T)
+        if ll is None:
+            ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
+        observed = None
+        if hessian:
+            observed = 0.5 * ((scaled * (2.0 * ratio - 1.0)) @ scaled.T)
+            if q:
+                w = _adjoint_filter(beta, (1.0 - ratio) * inv)
+                for j in range(1, q + 1):
+                    # sum_t w_t D_{t-j}: the beta_j row and column of sum_t u_t d^2 sigma_t^2
+                    cross = 0.5 * (ds2[:, :-j] @ w[j:])
+                    observed[p + j, :] += cross
+                    observed[:, p + j] += cross
+        return ll, score, info, s2, observed
 
 
 def _grid_start(lik: _Likelihood, p: int, q: int) -> np.ndarray:
@@ -212,17 +261,64 @@ def _grid_start(lik: _Likelihood, p: int, q: int) -> np.ndarray:
     return best
 
 
+def _curvature(theta: np.ndarray, score: np.ndarray) -> np.ndarray:
+    """``sum_m score_m d^2 theta_m / dz dz^T`` (k, k): the part of the Hessian in z that the
+    change of coordinates adds (zero at a stationary point)."""
+    k = theta.size
+    out = np.zeros((k, k))
+    out[0, 0] = score[0] * theta[0]
+    share, g = theta[1:], score[1:]
+    mean = float(g @ share)
+    out[1:, 1:] = (np.diag(share * (g - mean)) - np.outer(share, share) * (g[:, None] + g[None, :])
+                   + 2.0 * mean * np.outer(share, share))
+    return out
+
+
+def _newton_matrix(z: np.ndarray, theta: np.ndarray, score: np.ndarray, info: np.ndarray,
+                   observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient and curvature in z: the observed information (Newton) where it is positive
+    definite, else the expected information (Fisher scoring)."""
+    jac = _theta_jacobian(z, theta)
+    g = jac.T @ score
+    h = jac.T @ observed @ jac - _curvature(theta, score)
+    try:
+        np.linalg.cholesky(h)
+    except np.linalg.LinAlgError:
+        h = jac.T @ info @ jac
+    return g, h
+
+
+def _extrapolate(lik: _Likelihood, z: np.ndarray, step: np.ndarray, z_new: np.ndarray,
+                 theta_new: np.ndarray, ll_new: float, s2_new: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """``z + 2^k step``, k = 1, 2, .. while the log-likelihood increases (from the accepted
+    ``z + step``); returns the best point, its parameters, log-likelihood and sigma^2."""
+    for k in range(1, _EXTRAPOLATE_STEPS + 1):
+        z_try = z + 2.0**k * step
+        theta_try = _to_theta(z_try)
+        if not (theta_try[1:].sum() < 1.0 and np.all(np.isfinite(theta_try))):
+            break
+        ll_try, s2_try = lik.variance(theta_try)
+        if not ll_try > ll_new:
+            break
+        z_new, theta_new, ll_new, s2_new = z_try, theta_try, ll_try, s2_try
+    return z_new, theta_new, ll_new, s2_new
+
+
 def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
-              ) -> tuple[np.ndarray, int, bool]:
-    """Fisher scoring with Levenberg damping in unconstrained coordinates."""
+              ) -> tuple[np.ndarray, int, bool, tuple[float, np.ndarray, np.ndarray]]:
+    """Newton (Fisher scoring where the observed information is not positive definite) with
+    Levenberg damping in unconstrained coordinates.
+
+    Returns the estimate, the iterations used, whether `tol` was met, and the log-likelihood,
+    expected information and sigma^2 at the estimate.
+    """
     z = _from_theta(theta0)
     theta = theta0
-    ll, score, info, _ = lik.full(theta)
+    ll, score, info, s2, observed = lik.terms(theta, hessian=True)
     lam = 1e-3
     for it in range(1, max_iter + 1):
-        jac = _theta_jacobian(z, theta)
-        g = jac.T @ score
-        h = jac.T @ info @ jac
+        g, h = _newton_matrix(z, theta, score, info, observed)
         diag = np.diag(h).copy()
         diag[diag <= 0] = 1.0
         improved = False
@@ -231,21 +327,28 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
             z_new = z + step
             theta_new = _to_theta(z_new)
             if theta_new[1:].sum() < 1.0 and np.all(np.isfinite(theta_new)):
-                ll_new = lik.value(theta_new)
+                ll_new, s2_new = lik.variance(theta_new)
                 if ll_new >= ll:
                     improved = True
                     break
             lam *= 10.0
         if not improved:
-            return theta, it, bool(g @ np.linalg.lstsq(h, g, rcond=None)[0] < tol)
+            met = bool(g @ np.linalg.lstsq(h, g, rcond=None)[0] < tol)
+            return theta, it, met, (ll, info, s2)
         predicted = float(g @ step)
+        if ll_new - ll > _EXTRAPOLATE * predicted:
+            # the likelihood keeps rising beyond the quadratic model's prediction (a maximum on
+            # the boundary sum alpha + sum beta -> 1, where each Newton step only gains a
+            # constant factor): longer steps along the same direction while they gain
+            z_new, theta_new, ll_new, s2_new = _extrapolate(lik, z, step, z_new, theta_new,
+                                                            ll_new, s2_new)
         gain = ll_new - ll
         z, theta = z_new, theta_new
-        ll, score, info, _ = lik.full(theta)
+        ll, score, info, s2, observed = lik.terms(theta, s2_new, hessian=True, ll=ll_new)
         lam = max(lam / 10.0, 1e-12)
         if predicted < tol and gain <= tol:
-            return theta, it, True
-    return theta, max_iter, False
+            return theta, it, True, (ll, info, s2)
+    return theta, max_iter, False, (ll, info, s2)
 
 
 @attrs.frozen
@@ -389,8 +492,7 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
         # needs only a few steps from there
         prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
         theta0 = _maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0]
-    theta, n_iter, converged = _maximise(lik, theta0, max_iter, tol)
-    ll, _, info, s2 = lik.full(theta)
+    theta, n_iter, converged, (ll, info, s2) = _maximise(lik, theta0, max_iter, tol)
     try:
         cov = np.linalg.inv(info)
     except np.linalg.LinAlgError:
