@@ -262,34 +262,48 @@ def _dcm(q: Sequence[float]) -> np.ndarray:
 def _discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretisation of ``dx = F x dt + dw``, ``E[dw dw'] = W dt`` over `dt`.
 
-    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` by their power series
-    (``Q = sum_k dt^(k+1)/(k+1)! L_k`` with ``L_0 = W``, ``L_k = F L_(k-1) + L_(k-1) F'``), summed
-    to double precision after scaling ``dt`` so that ``||F dt||_1 <= 1/2``; the halved steps are
-    composed back exactly (:func:`stochmod.statespace.compose_steps`). Equivalent to Van Loan's
-    method without its doubled matrix (whose size makes BLAS thread on small problems).
+    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` (Van Loan's pair) by
+    scaling and squaring: over the sub-step ``h = dt / 2^s`` with ``||F h||_1 <= 1/2`` both are
+    summed to double precision by their power series in scaled form, ``Phi = sum A^k / k!`` and
+    ``Q = sum T_k / (k + 1)`` with ``A = F h``, ``T_0 = W h``, ``T_k = (A T_(k-1) + T_(k-1) A')
+    / k`` (every term bounded by ``||W h|| / k!``, so a Gauss-Markov pole far faster than
+    ``1/dt`` cannot overflow it), and the ``2^s`` sub-steps are composed back exactly by
+    repeated squaring. Van Loan's own block matrix holds ``expm(-F dt)``, which overflows on
+    such a pole; this form never grows. The squarings carry ``Phi - I`` rather than ``Phi`` (``(I + E)^2 = I + 2E + E^2``), so the decay of a slow
+    mode stays exact to rounding however many squarings a fast pole demands.
+
+    Raises
+    ------
+    InputError
+        If `F` or `W` holds a non-finite value.
     """
     n = F.shape[0]
-    norm = float(np.abs(F).sum(axis=0).max()) * dt
+    norm = float(np.abs(F).sum(axis=0).max(initial=0.0)) * dt
+    if not (math.isfinite(norm) and np.isfinite(W).all()):
+        raise InputError("the filter's continuous error model holds a non-finite value "
+                         "(a sensor model parameter is infinite or NaN)")
     s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
-    h = dt / 2.0**s
+    h = math.ldexp(dt, -s)
     A = F * h
-    Phi = np.eye(n) + A
+    E = A.copy()  # Phi - I: the squarings keep a slow mode's small decay out of rounding to 1
     term = A
-    L = W
-    Q = W * h
-    c = h
+    T = W * h
+    Q = T.copy()
     for k in range(2, 30):
         term = term @ A / k
-        FL = F @ L
-        L = FL + FL.T
-        c = c * h / k
-        dq = c * L
-        Phi += term
+        AT = A @ T
+        T = (AT + AT.T) / (k - 1)
+        dq = T / k
+        E += term
         Q += dq
         if np.abs(term).max() <= 1e-17 and np.abs(dq).max() <= 1e-17 * max(np.abs(Q).max(), 1e-300):
             break
-    Q = 0.5 * (Q + Q.T)
-    return compose_steps(Phi, Q, 2**s) if s else (Phi, Q)
+    for _ in range(s):  # (Phi, Q) over 2h from h: Phi^2 = I + 2E + E^2, Q <- Phi Q Phi' + Q
+        EQ = E @ Q
+        Q = 2.0 * Q + EQ + EQ.T + EQ @ E.T
+        E = 2.0 * E + E @ E
+    E[np.diag_indices(n)] += 1.0
+    return E, 0.5 * (Q + Q.T)
 
 
 def _bdiag(a: np.ndarray, b: np.ndarray) -> np.ndarray:
