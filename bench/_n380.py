@@ -211,7 +211,8 @@ def pyins_example_models(freq: float = 100.0):
 def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                  gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
                  initial_error: dict | None = None, gate: float | None = None,
-                 receiver_sd: bool = False, lever_arm=(0.0, 0.0, 0.0), lever_arm_sd=0.0):
+                 receiver_sd: bool = False, lever_arm=(0.0, 0.0, 0.0), lever_arm_sd=0.0,
+                 dt_filter: float = 0.1):
     """stochmod's loosely-coupled filter on the drive with the issue's three outages.
 
     Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
@@ -245,7 +246,7 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     gnss = GnssData(g.time, g.lat, g.lon, g.height, vel_ned=g.vel_ned if velocity else None,
                     sd=g.sd if receiver_sd else None,
                     sd_vel=g.sd_vel if receiver_sd and velocity else None)
-    flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+    flt = LooselyCoupledFilter(gyro, accel, dt_filter=dt_filter, gyro_bias_sd=gyro_bias_sd,
                                accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
                                gnss_vel_sd=0.3, lever_arm=lever_arm, lever_arm_sd=lever_arm_sd)
     outages = [(s, OUTAGE_DURATION) for s in OUTAGE_STARTS]

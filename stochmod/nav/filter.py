@@ -284,20 +284,28 @@ def _discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np
                          "(a sensor model parameter is infinite or NaN)")
     s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
     h = math.ldexp(dt, -s)
+    a = 2.0 * math.ldexp(norm, -s)  # >= ||A|| + ||A'||, at most 1
+    # terms up to order K: the remainder of both series is below (a^K / (K + 1)!) ~ 1e-17
+    K, bound = 1, a / 2.0
+    while bound > 1e-17:
+        K += 1
+        bound *= a / (K + 1)
     A = F * h
-    E = A.copy()  # Phi - I: the squarings keep a slow mode's small decay out of rounding to 1
-    term = A
-    T = W * h
-    Q = T.copy()
-    for k in range(2, 30):
-        term = term @ A / k
-        AT = A @ T
-        T = (AT + AT.T) / (k - 1)
-        dq = T / k
-        E += term
-        Q += dq
-        if np.abs(term).max() <= 1e-17 and np.abs(dq).max() <= 1e-17 * max(np.abs(Q).max(), 1e-300):
-            break
+    # X_k = [A^k | U_(k-1)] with U_0 = W h, U_j = A U_(j-1) + U_(j-1) A': Phi = sum A^k / k!
+    # and Q = sum U_j / (j + 1)!, so both halves of X_k take the coefficient 1 / k!, and one
+    # product A @ X_k advances both (A^k commutes with A)
+    X = np.empty((n, 2 * n))
+    X[:, :n] = A
+    X[:, n:] = W * h
+    acc = X.copy()
+    c = 1.0
+    for k in range(2, K + 1):
+        X = A @ X
+        U = X[:, n:]
+        X[:, n:] = U + U.T
+        c /= k
+        acc += X * c
+    E, Q = acc[:, :n], acc[:, n:]  # Phi - I: squaring it keeps a slow mode's decay exact
     for _ in range(s):  # (Phi, Q) over 2h from h: Phi^2 = I + 2E + E^2, Q <- Phi Q Phi' + Q
         EQ = E @ Q
         Q = 2.0 * Q + EQ + EQ.T + EQ @ E.T
