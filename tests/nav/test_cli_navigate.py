@@ -159,14 +159,15 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
 @pytest.mark.slow
 def test_outages_cli_quick(recording, capsys) -> None:
     folder, _ = recording
-    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
-                 "--quick", "--gyro-bias-sd", "1e-4"])
+    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "2",
+                 "--workers", "2", "--quick", "--gyro-bias-sd", "1e-4"])
     assert code == 0
     out = capsys.readouterr().out
     assert "60+30 s" in out and "130+30 s" in out
     assert "calibrated" in out and "white noise" in out and "mean NEES" in out
-    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs",
-                 "0"]) == 2
+    assert "2 run(s)" in out
+    for bad in (["--runs", "0"], ["--workers", "0"], ["--dt-filter", "0"]):
+        assert main(["outages", "--calibration", str(folder / "calibration.json"), *bad]) == 2
 
 
 def test_white_part() -> None:
