@@ -131,14 +131,16 @@ def initial_error() -> dict[str, list[float]]:
             "rph": e[["roll", "pitch", "heading"]].tolist()}
 
 
-def run_pyins(increments, gnss, pva0, *, velocity: bool) -> tuple[object, float]:
-    """pyins' feedback filter with the example's settings; returns (result, wall seconds)."""
+def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None) -> tuple[object, float]:
+    """pyins' feedback filter with the example's settings; returns (result, wall seconds).
+    `lever_arm`: IMU to antenna in the body frame (m), or None (none)."""
     import pyins
 
     gnss = gnss[~in_outage(gnss.index.to_numpy(), float(pva0.name))]
-    measurements = [pyins.measurements.Position(gnss, POSITION_SD)]
+    arm = None if lever_arm is None else np.asarray(lever_arm, dtype=float)
+    measurements = [pyins.measurements.Position(gnss, POSITION_SD, arm)]
     if velocity:
-        measurements.append(pyins.measurements.NedVelocity(gnss, VELOCITY_SD))
+        measurements.append(pyins.measurements.NedVelocity(gnss, VELOCITY_SD, arm))
     gyro, accel = _models()
     error = pyins.sim.generate_pva_error(INIT["position_sd"], INIT["velocity_sd"],
                                          INIT["level_sd"], INIT["azimuth_sd"], 0)
