@@ -203,6 +203,19 @@ class _Sensors:
                                                                    np.zeros((0, 0)))
         F = None if cont is None else cont.F
         GQG = None if cont is None else cont.G @ cont.Qc @ cont.G.T
+        white_var = aug.white_var[order].astype(float)
+        fast = np.zeros(0, int) if F is None else _sub_sample_states(F, GQG, dt)
+        if fast.size:
+            # a process decorrelated within one sample is, for the samples (and the fit that
+            # produced it), white noise of its stationary variance per sample; integrated in
+            # continuous time it would give the angle/velocity random walk 2 sigma^2 Tc instead
+            # of sigma^2 h (too little noise for Tc << h): it joins the white feed-through
+            white_var = white_var + (H[:, fast] ** 2 * (np.diag(GQG)[fast] / (-2.0 * np.diag(F)[
+                fast]))).sum(axis=1)
+            keep = np.setdiff1d(np.arange(F.shape[0]), fast)
+            sel = np.ix_(keep, keep)
+            names = [names[i] for i in keep]
+            H, Phi, Q, P0, F, GQG = H[:, keep], Phi[sel], Q[sel], P0[sel], F[sel], GQG[sel]
         extra = [(i, sd) for i, sd in enumerate([gyro_bias_sd] * 3 + [accel_bias_sd] * 3)
                  if sd]
         if extra:
@@ -235,7 +248,7 @@ class _Sensors:
         self.F, self.GQG = F, GQG       # continuous form or None
         self.dt = dt
         freqs = np.array([models[a].freq for a in AXES])
-        self.psd = aug.white_var[order] / freqs  # two-sided PSD N^2 of the white parts
+        self.psd = white_var / freqs  # two-sided PSD N^2 of the white parts
         self._cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def steps(self, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -243,6 +256,21 @@ class _Sensors:
         if m not in self._cache:
             self._cache[m] = compose_steps(self.Phi1, self.Q1, m)
         return self._cache[m]
+
+
+#: A decoupled scalar state whose pole exceeds this many times the IMU rate (correlation time
+#: below a tenth of the sample period; successive samples correlate by < 5e-5) is white noise.
+SUB_SAMPLE_POLE = 10.0
+
+
+def _sub_sample_states(F: np.ndarray, GQG: np.ndarray, dt: float) -> np.ndarray:
+    """Indices of decoupled scalar Gauss-Markov-like states (``dx = -beta x dt + dw``, no other
+    state in their row or column of F and GQG) with ``beta dt >= SUB_SAMPLE_POLE``."""
+    d = np.diag(F)
+    off_f = np.abs(F - np.diag(d))
+    off_q = np.abs(GQG - np.diag(np.diag(GQG)))
+    alone = (off_f.sum(0) + off_f.sum(1) + off_q.sum(0) + off_q.sum(1)) == 0
+    return np.flatnonzero(alone & (-d * dt >= SUB_SAMPLE_POLE))
 
 
 def _skew(v: Sequence[float]) -> np.ndarray:

@@ -233,13 +233,29 @@ def test_discretisation_is_exact_on_poles_far_from_the_step():
         _discretise(bad, W, dt)
 
 
-def test_filter_runs_on_a_model_with_a_very_fast_gauss_markov_pole(truth, clean_imu):
+def test_a_sub_sample_gauss_markov_process_is_the_white_noise_it_is_at_the_imu_rate(
+        truth, clean_imu):
+    # correlation times of 1e-4 s and 1e-20 s (a GMWM fit can return either) at 100 Hz: each
+    # sample is independent, variance sigma^2; the filter must treat them as that white noise
+    # (integrated in continuous time they would give 2 sigma^2 Tc, far too little), and the
+    # 1e-20 s pole once overflowed the discretisation
     imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
-    fast = (GYRO + GM.from_correlation_time(1e-20, 1e-4)).bind(FS)
+    sig = (2e-4, 1e-4)
+    fast = (GYRO + GM.from_correlation_time(1e-4, sig[0])
+            + GM.from_correlation_time(1e-20, sig[1])).bind(FS)
+    wn_var = GYRO.augment(1.0 / FS).white_var + sig[0] ** 2 + sig[1] ** 2
+    white = (WN(sigma2=wn_var) + GYRO.processes[1]).bind(FS)
     sel = truth.time <= 5.0
-    res = LooselyCoupledFilter(fast, ACCEL, dt_filter=0.1, lever_arm=ARM).run(
+    runs = [LooselyCoupledFilter(m, ACCEL, dt_filter=0.1, lever_arm=ARM).run(
         imu.time[sel], imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss, init=init)
-    assert np.isfinite(res.epoch_sd).all()
+        for m in (fast, white)]
+    assert len(runs[0].state_names) == len(runs[1].state_names)  # the two fast states are gone
+    np.testing.assert_allclose(runs[0].epoch_sd, runs[1].epoch_sd, rtol=1e-12)
+    np.testing.assert_allclose(runs[0].lat, runs[1].lat, rtol=0, atol=1e-12)
+    # a process correlated over several samples keeps its state
+    slow = (GYRO + GM.from_correlation_time(0.05, sig[0])).bind(FS)
+    assert len(LooselyCoupledFilter(slow, ACCEL).state_names(1.0 / FS)) == \
+        len(LooselyCoupledFilter(GYRO, ACCEL).state_names(1.0 / FS)) + 3
 
 
 def test_heading_jacobian_by_finite_differences():
