@@ -19,7 +19,9 @@ sub-matrices):
 - ``d(ds)/dt = F_s ds + G_s dW`` (the models' continuous form)
 
 with ``dg = (-g/R dr_N, -g/R dr_E, 2g/R dr_D)``. The white parts of the models become the
-navigation process noise with PSD ``N^2 = white_var / freq``. Covariance propagation happens at
+navigation process noise with PSD ``N^2 = white_var / freq``; so does a decoupled scalar
+process decorrelated within a tenth of an IMU sample (``SUB_SAMPLE_POLE``), with its stationary
+variance per sample, because that is what it is at the IMU rate. Covariance propagation happens at
 the filter step ``dt_filter`` (and at measurement epochs), not at every IMU sample, with the
 transition frozen over the step and discretised exactly (Van Loan) when every sensor block has a
 continuous form. For discrete-only blocks (AR) the sensor block is composed exactly from its
