@@ -211,16 +211,18 @@ def pyins_example_models(freq: float = 100.0):
 def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                  gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
                  initial_error: dict | None = None, gate: float | None = None,
-                 receiver_sd: bool = False, lever_arm_sd: float = 0.0):
+                 receiver_sd: bool = False, lever_arm=(0.0, 0.0, 0.0), lever_arm_sd=0.0,
+                 dt_filter: float = 0.1):
     """stochmod's loosely-coupled filter on the drive with the issue's three outages.
 
     Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
     initial sd 5 m, 0.5 m/s, 0.2/0.2/1 deg, covariance step 0.1 s, no lever arm, no gating:
     the settings of the pyins run; ``receiver_sd=True`` uses the receiver's own per-fix position
     and velocity sd instead (what ``stochmod navigate`` does with the CSVs). `initial_error`
-    (``{"ned": m, "vel": m/s, "rph": deg}``); ``lever_arm_sd`` > 0 (m) lets the filter estimate
-    the unknown IMU-to-antenna lever arm (three constant states).
-    perturbs the reference start as pyins' run does. Returns the NavResult.
+    (``{"ned": m, "vel": m/s, "rph": deg}``) perturbs the reference start as pyins' run does.
+    `lever_arm` (body x/y/z, m) is the IMU-to-antenna lever arm; ``lever_arm_sd`` > 0 (m, one or
+    three values) makes it three constant states started there (``stochmod navigate
+    --lever-arm-sd``). Returns the NavResult.
     """
     from stochmod.nav import InitialState, LooselyCoupledFilter
 
@@ -244,9 +246,9 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     gnss = GnssData(g.time, g.lat, g.lon, g.height, vel_ned=g.vel_ned if velocity else None,
                     sd=g.sd if receiver_sd else None,
                     sd_vel=g.sd_vel if receiver_sd and velocity else None)
-    flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+    flt = LooselyCoupledFilter(gyro, accel, dt_filter=dt_filter, gyro_bias_sd=gyro_bias_sd,
                                accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
-                               gnss_vel_sd=0.3, lever_arm_sd=lever_arm_sd)
+                               gnss_vel_sd=0.3, lever_arm=lever_arm, lever_arm_sd=lever_arm_sd)
     outages = [(s, OUTAGE_DURATION) for s in OUTAGE_STARTS]
     return flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss, init=init,
                    outages=outages)

@@ -15,7 +15,11 @@ pyins 1.0, the example with a low-to-middle grade MEMS IMU):
 - covariance step 0.1 s (pyins' default).
 
 The lever arm of the n380 drive is not given by onavdata (antenna "above rear-right passenger
-on the roof rack"), so it is zero here, as it is for stochmod in the comparison.
+on the roof rack"), so it is zero here by default, as it is for stochmod in that comparison;
+``--lever-arm -1.3 0 0`` gives both filters the lever arm fitted from the data
+(docs/navigation.md) and stores the run as ``raw/position/lever_arm`` with pyins' attitude
+error, biases and 1-sigma just before each outage (``states_at_outages``), the numbers the
+real-drive test compares stochmod's state with.
 
 Two inputs are run:
 
@@ -131,14 +135,16 @@ def initial_error() -> dict[str, list[float]]:
             "rph": e[["roll", "pitch", "heading"]].tolist()}
 
 
-def run_pyins(increments, gnss, pva0, *, velocity: bool) -> tuple[object, float]:
-    """pyins' feedback filter with the example's settings; returns (result, wall seconds)."""
+def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None) -> tuple[object, float]:
+    """pyins' feedback filter with the example's settings; returns (result, wall seconds).
+    `lever_arm`: IMU to antenna in the body frame (m), or None (none)."""
     import pyins
 
     gnss = gnss[~in_outage(gnss.index.to_numpy(), float(pva0.name))]
-    measurements = [pyins.measurements.Position(gnss, POSITION_SD)]
+    arm = None if lever_arm is None else np.asarray(lever_arm, dtype=float)
+    measurements = [pyins.measurements.Position(gnss, POSITION_SD, arm)]
     if velocity:
-        measurements.append(pyins.measurements.NedVelocity(gnss, VELOCITY_SD))
+        measurements.append(pyins.measurements.NedVelocity(gnss, VELOCITY_SD, arm))
     gyro, accel = _models()
     error = pyins.sim.generate_pva_error(INIT["position_sd"], INIT["velocity_sd"],
                                          INIT["level_sd"], INIT["azimuth_sd"], 0)
@@ -150,6 +156,31 @@ def run_pyins(increments, gnss, pva0, *, velocity: bool) -> tuple[object, float]
     return result, time.perf_counter() - t
 
 
+def states_at_outages(result, drive) -> dict[str, list]:
+    """pyins' state at the last epoch before each outage: roll/pitch/heading error against the
+    reference (deg), gyro bias (deg/h), accelerometer bias (m/s^2), and their 1-sigma."""
+    traj, sd = result.trajectory, result.trajectory_sd
+    out: dict[str, list] = {k: [] for k in ("rph_error_deg", "gyro_bias_deg_h", "accel_bias_m_s2",
+                                            "rph_sd_deg", "gyro_bias_sd_deg_h",
+                                            "accel_bias_sd_m_s2")}
+    for start in OUTAGE_STARTS:
+        t = drive.t0 + start
+        i = int(np.searchsorted(traj.index.to_numpy(), t)) - 1
+        ref = drive.reference.at(np.array([traj.index[i]]))
+        err = traj[["roll", "pitch", "heading"]].to_numpy()[i] - ref.rph[0]
+        err[2] = (err[2] + 180.0) % 360.0 - 180.0
+        j = int(np.searchsorted(result.gyro.index.to_numpy(), t)) - 1
+        k = int(np.searchsorted(sd.index.to_numpy(), t)) - 1
+        out["rph_error_deg"].append(err.tolist())
+        out["gyro_bias_deg_h"].append(np.degrees(result.gyro.to_numpy()[j] * 3600.0).tolist())
+        out["accel_bias_m_s2"].append(result.accel.to_numpy()[j].tolist())
+        out["rph_sd_deg"].append(sd[["roll", "pitch", "heading"]].to_numpy()[k].tolist())
+        out["gyro_bias_sd_deg_h"].append(
+            np.degrees(result.gyro_sd.to_numpy()[k] * 3600.0).tolist())
+        out["accel_bias_sd_m_s2"].append(result.accel_sd.to_numpy()[k].tolist())
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     import pyins
 
@@ -159,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
                         choices=["raw", "onavdata"])
     parser.add_argument("--modes", nargs="+", default=["position", "position_velocity"],
                         choices=["position", "position_velocity"])
+    parser.add_argument("--lever-arm", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"),
+                        help="IMU to antenna, body frame, m (default: none)")
     args = parser.parse_args(argv)
 
     drive = load_n380()
@@ -178,13 +211,19 @@ def main(argv: list[str] | None = None) -> int:
     for source in args.inputs:
         increments, gnss, pva0 = raw_inputs(drive) if source == "raw" else _onavdata_inputs()
         for velocity in [m == "position_velocity" for m in args.modes]:
-            result, wall = run_pyins(increments, gnss, pva0, velocity=velocity)
+            result, wall = run_pyins(increments, gnss, pva0, velocity=velocity,
+                                     lever_arm=args.lever_arm)
             traj = result.trajectory
             errors = max_outage_errors(traj.index.to_numpy(), traj["lat"].to_numpy(),
                                        traj["lon"].to_numpy(), drive.reference, drive.t0)
             mode = "position_velocity" if velocity else "position"
-            out["runs"][f"{source}/{mode}"] = {"max_horizontal_error_m": errors,
-                                               "wall_s": wall, "x_real_time": duration / wall}
+            run = {"max_horizontal_error_m": errors, "wall_s": wall,
+                   "x_real_time": duration / wall}
+            if args.lever_arm is not None:
+                mode += "/lever_arm"
+                run.update(lever_arm_m=list(args.lever_arm),
+                           states_at_outages=states_at_outages(result, drive))
+            out["runs"][f"{source}/{mode}"] = run
             print(f"pyins {pyins.__version__} {source:8s} {mode:17s} max horizontal error per "
                   f"outage: {', '.join(f'{e:6.1f}' for e in errors)} m   wall {wall:5.1f} s "
                   f"({duration / wall:5.1f}x real time)", flush=True)

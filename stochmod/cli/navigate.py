@@ -62,6 +62,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "filter aligns itself from GNSS velocity")
     p.add_argument("--lever-arm", type=float, nargs=3, default=(0.0, 0.0, 0.0),
                    metavar=("X", "Y", "Z"), help="IMU to antenna in the body frame, m")
+    p.add_argument("--lever-arm-sd", type=float, nargs="+", default=[0.0], metavar="SD",
+                   help="1-sigma of --lever-arm, m (one value or three for x y z): nonzero "
+                        "estimates the lever arm as three constant filter states started at "
+                        "--lever-arm, and reports the estimate (default 0: --lever-arm is exact)")
     p.add_argument("--outage", type=float, nargs=2, action="append", default=[],
                    metavar=("START", "DURATION"),
                    help="withhold GNSS from START for DURATION s (START from the first IMU time); "
@@ -105,6 +109,25 @@ def _models(args: argparse.Namespace, imu: ImuData) -> tuple[dict[str, Model], d
     return ({a: models[f"gyro_{a}"] for a in "xyz"}, {a: models[f"accel_{a}"] for a in "xyz"})
 
 
+def _lever_arm_sd(values: list[float]) -> tuple[float, float, float]:
+    if len(values) not in (1, 3):
+        raise InputError(f"--lever-arm-sd takes one or three values (m), got {len(values)}")
+    if not all(math.isfinite(v) and v >= 0 for v in values):
+        raise InputError(f"--lever-arm-sd must be numbers >= 0 (m), got {values}")
+    x, y, z = values * 3 if len(values) == 1 else values
+    return x, y, z
+
+
+def _lever_arm_lines(args: argparse.Namespace, result: NavResult) -> list[str]:
+    if result.lever_arm is None:
+        return [f"lever arm (m, body): {list(args.lever_arm)} (fixed)"]
+    i = result.state_names.index("lever_arm.x")
+    arm, sd = result.lever_arm[-1], result.epoch_sd[-1, i:i + 3]
+    return [f"lever arm (m, body): prior {list(args.lever_arm)} +- "
+            f"{list(_lever_arm_sd(args.lever_arm_sd))}, estimated "
+            + ", ".join(f"{a} {v:.3f} +- {e:.3f}" for a, v, e in zip("xyz", arm, sd))]
+
+
 def _bias(value: float | None, default: float, name: str) -> float:
     if value is None:
         return default
@@ -130,7 +153,7 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         f"GNSS: {gnss.n} fixes, velocity {'used' if gnss.vel_ned is not None else 'absent'}, "
         f"sd {'from the file' if gnss.sd is not None else 'filter default'}",
         f"outages (s from the first IMU time): {[tuple(o) for o in args.outage] or 'none'}",
-        f"lever arm (m, body): {list(args.lever_arm)}",
+        *_lever_arm_lines(args, result),
         f"error models: {'from ' + args.calibration if args.calibration else 'default MEMS'}; "
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
@@ -188,11 +211,13 @@ def run(args: argparse.Namespace) -> int:
     accel_bias_sd = _bias(args.accel_bias_sd, DEFAULT_ACCEL_BIAS_SD, "--accel-bias-sd")
     if not (math.isfinite(args.dt_filter) and args.dt_filter > 0):
         raise InputError(f"--dt-filter must be a positive number of s, got {args.dt_filter!r}")
+    lever_arm_sd = _lever_arm_sd(args.lever_arm_sd)
     outages = [(float(s), float(d)) for s, d in args.outage]
     if any(d <= 0 for _, d in outages):
         raise InputError(f"--outage DURATION must be positive, got {outages}")
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
-                               gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd)
+                               gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
+                               lever_arm_sd=lever_arm_sd)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages)
     out = Path(args.out)

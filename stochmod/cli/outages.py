@@ -49,6 +49,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="turn-on accelerometer bias 1-sigma drawn per run, m/s^2 (default 0)")
     p.add_argument("--cep", type=float, default=2.0, metavar="M",
                    help="GNSS horizontal CEP, m (default 2)")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="processes the runs are spread over (default 1; the table does not "
+                        "depend on it)")
+    p.add_argument("--dt-filter", type=float, default=0.1, metavar="S",
+                   help="covariance step of the filters, s (default 0.1; 1.0 propagates once "
+                        "per GNSS interval, about twice as fast)")
     p.add_argument("--quick", action="store_true",
                    help="a 3.5 min drive with two 30 s outages instead of the 10 min drive")
     p.set_defaults(func=run)
@@ -73,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
     models = read_calibration(args.calibration)
     if args.runs < 1:
         raise InputError(f"--runs must be at least 1, got {args.runs}")
+    if args.workers < 1:
+        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    if not (math.isfinite(args.dt_filter) and args.dt_filter > 0):
+        raise InputError(f"--dt-filter must be a positive number of s, got {args.dt_filter!r}")
     for name in ("gyro_bias_sd", "accel_bias_sd", "cep"):
         value = getattr(args, name)
         if not (math.isfinite(value) and value >= 0) or (name == "cep" and value == 0):
@@ -91,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
                          profile=QUICK_PROFILE if args.quick else DEFAULT_PROFILE,
                          outages=QUICK_OUTAGES if args.quick else DEFAULT_OUTAGES, rate=rate,
                          gyro_bias_sd=args.gyro_bias_sd, accel_bias_sd=args.accel_bias_sd,
-                         cep=args.cep, progress=progress)
+                         cep=args.cep, dt_filter=args.dt_filter, progress=progress,
+                         workers=args.workers)
     print(study.summary())
     return 0

@@ -19,7 +19,9 @@ sub-matrices):
 - ``d(ds)/dt = F_s ds + G_s dW`` (the models' continuous form)
 
 with ``dg = (-g/R dr_N, -g/R dr_E, 2g/R dr_D)``. The white parts of the models become the
-navigation process noise with PSD ``N^2 = white_var / freq``. Covariance propagation happens at
+navigation process noise with PSD ``N^2 = white_var / freq``; so does a decoupled scalar
+process decorrelated within a tenth of an IMU sample (``SUB_SAMPLE_POLE``), with its stationary
+variance per sample, because that is what it is at the IMU rate. Covariance propagation happens at
 the filter step ``dt_filter`` (and at measurement epochs), not at every IMU sample, with the
 transition frozen over the step and discretised exactly (Van Loan) when every sensor block has a
 continuous form. For discrete-only blocks (AR) the sensor block is composed exactly from its
@@ -203,6 +205,19 @@ class _Sensors:
                                                                    np.zeros((0, 0)))
         F = None if cont is None else cont.F
         GQG = None if cont is None else cont.G @ cont.Qc @ cont.G.T
+        white_var = aug.white_var[order].astype(float)
+        fast = np.zeros(0, int) if F is None else _sub_sample_states(F, GQG, dt)
+        if fast.size:
+            # a process decorrelated within one sample is, for the samples (and the fit that
+            # produced it), white noise of its stationary variance per sample; integrated in
+            # continuous time it would give the angle/velocity random walk 2 sigma^2 Tc instead
+            # of sigma^2 h (too little noise for Tc << h): it joins the white feed-through
+            white_var = white_var + (H[:, fast] ** 2 * (np.diag(GQG)[fast] / (-2.0 * np.diag(F)[
+                fast]))).sum(axis=1)
+            keep = np.setdiff1d(np.arange(F.shape[0]), fast)
+            sel = np.ix_(keep, keep)
+            names = [names[i] for i in keep]
+            H, Phi, Q, P0, F, GQG = H[:, keep], Phi[sel], Q[sel], P0[sel], F[sel], GQG[sel]
         extra = [(i, sd) for i, sd in enumerate([gyro_bias_sd] * 3 + [accel_bias_sd] * 3)
                  if sd]
         if extra:
@@ -235,7 +250,7 @@ class _Sensors:
         self.F, self.GQG = F, GQG       # continuous form or None
         self.dt = dt
         freqs = np.array([models[a].freq for a in AXES])
-        self.psd = aug.white_var[order] / freqs  # two-sided PSD N^2 of the white parts
+        self.psd = white_var / freqs  # two-sided PSD N^2 of the white parts
         self._cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def steps(self, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -243,6 +258,21 @@ class _Sensors:
         if m not in self._cache:
             self._cache[m] = compose_steps(self.Phi1, self.Q1, m)
         return self._cache[m]
+
+
+#: A decoupled scalar state whose pole exceeds this many times the IMU rate (correlation time
+#: below a tenth of the sample period; successive samples correlate by < 5e-5) is white noise.
+SUB_SAMPLE_POLE = 10.0
+
+
+def _sub_sample_states(F: np.ndarray, GQG: np.ndarray, dt: float) -> np.ndarray:
+    """Indices of decoupled scalar Gauss-Markov-like states (``dx = -beta x dt + dw``, no other
+    state in their row or column of F and GQG) with ``beta dt >= SUB_SAMPLE_POLE``."""
+    d = np.diag(F)
+    off_f = np.abs(F - np.diag(d))
+    off_q = np.abs(GQG - np.diag(np.diag(GQG)))
+    alone = (off_f.sum(0) + off_f.sum(1) + off_q.sum(0) + off_q.sum(1)) == 0
+    return np.flatnonzero(alone & (-d * dt >= SUB_SAMPLE_POLE))
 
 
 def _skew(v: Sequence[float]) -> np.ndarray:
@@ -262,34 +292,56 @@ def _dcm(q: Sequence[float]) -> np.ndarray:
 def _discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretisation of ``dx = F x dt + dw``, ``E[dw dw'] = W dt`` over `dt`.
 
-    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` by their power series
-    (``Q = sum_k dt^(k+1)/(k+1)! L_k`` with ``L_0 = W``, ``L_k = F L_(k-1) + L_(k-1) F'``), summed
-    to double precision after scaling ``dt`` so that ``||F dt||_1 <= 1/2``; the halved steps are
-    composed back exactly (:func:`stochmod.statespace.compose_steps`). Equivalent to Van Loan's
-    method without its doubled matrix (whose size makes BLAS thread on small problems).
+    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` (Van Loan's pair) by
+    scaling and squaring: over the sub-step ``h = dt / 2^s`` with ``||F h||_1 <= 1/2`` both are
+    summed to double precision by their power series in scaled form, ``Phi = sum A^k / k!`` and
+    ``Q = sum T_k / (k + 1)`` with ``A = F h``, ``T_0 = W h``, ``T_k = (A T_(k-1) + T_(k-1) A')
+    / k`` (every term bounded by ``||W h|| / k!``, so a Gauss-Markov pole far faster than
+    ``1/dt`` cannot overflow it), and the ``2^s`` sub-steps are composed back exactly by
+    repeated squaring. Van Loan's own block matrix holds ``expm(-F dt)``, which overflows on
+    such a pole; this form never grows. The squarings carry ``Phi - I`` rather than ``Phi`` (``(I + E)^2 = I + 2E + E^2``), so the decay of a slow
+    mode stays exact to rounding however many squarings a fast pole demands.
+
+    Raises
+    ------
+    InputError
+        If `F` or `W` holds a non-finite value.
     """
     n = F.shape[0]
-    norm = float(np.abs(F).sum(axis=0).max()) * dt
+    norm = float(np.abs(F).sum(axis=0).max(initial=0.0)) * dt
+    if not (math.isfinite(norm) and np.isfinite(W).all()):
+        raise InputError("the filter's continuous error model holds a non-finite value "
+                         "(a sensor model parameter is infinite or NaN)")
     s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
-    h = dt / 2.0**s
+    h = math.ldexp(dt, -s)
+    a = 2.0 * math.ldexp(norm, -s)  # >= ||A|| + ||A'||, at most 1
+    # terms up to order K: the remainder of both series is below (a^K / (K + 1)!) ~ 1e-17
+    K, bound = 1, a / 2.0
+    while bound > 1e-17:
+        K += 1
+        bound *= a / (K + 1)
     A = F * h
-    Phi = np.eye(n) + A
-    term = A
-    L = W
-    Q = W * h
-    c = h
-    for k in range(2, 30):
-        term = term @ A / k
-        FL = F @ L
-        L = FL + FL.T
-        c = c * h / k
-        dq = c * L
-        Phi += term
-        Q += dq
-        if np.abs(term).max() <= 1e-17 and np.abs(dq).max() <= 1e-17 * max(np.abs(Q).max(), 1e-300):
-            break
-    Q = 0.5 * (Q + Q.T)
-    return compose_steps(Phi, Q, 2**s) if s else (Phi, Q)
+    # X_k = [A^k | U_(k-1)] with U_0 = W h, U_j = A U_(j-1) + U_(j-1) A': Phi = sum A^k / k!
+    # and Q = sum U_j / (j + 1)!, so both halves of X_k take the coefficient 1 / k!, and one
+    # product A @ X_k advances both (A^k commutes with A)
+    X = np.empty((n, 2 * n))
+    X[:, :n] = A
+    X[:, n:] = W * h
+    acc = X.copy()
+    c = 1.0
+    for k in range(2, K + 1):
+        X = A @ X
+        U = X[:, n:]
+        X[:, n:] = U + U.T
+        c /= k
+        acc += X * c
+    E, Q = acc[:, :n], acc[:, n:]  # Phi - I: squaring it keeps a slow mode's decay exact
+    for _ in range(s):  # (Phi, Q) over 2h from h: Phi^2 = I + 2E + E^2, Q <- Phi Q Phi' + Q
+        EQ = E @ Q
+        Q = 2.0 * Q + EQ + EQ.T + EQ @ E.T
+        E = 2.0 * E + E @ E
+    E[np.diag_indices(n)] += 1.0
+    return E, 0.5 * (Q + Q.T)
 
 
 def _bdiag(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ average NEES (9 navigation states: 9 for an honest covariance).
 
 from __future__ import annotations
 
+import concurrent.futures
 import math
 from collections.abc import Callable, Mapping, Sequence
 
@@ -198,6 +199,7 @@ def outage_study(
     sigma_vel: float | None = 0.1,
     dt_filter: float = 0.1,
     progress: Callable[[int, str], None] | None = None,
+    workers: int = 1,
 ) -> OutageStudy:
     """Run an outage study.
 
@@ -230,9 +232,14 @@ def outage_study(
         GNSS horizontal CEP (m, Gonzalez eq. 7), vertical 1-sigma (m), velocity 1-sigma (m/s;
         None: position only).
     dt_filter : float
-        Covariance step of the filters, s.
+        Covariance step of the filters, s (1.0 with 1 Hz GNSS: once per GNSS interval, about
+        twice as fast; see docs/outages.md for its effect on the errors).
     progress : callable, optional
-        Called as ``progress(run, filter_name)`` before each filter run.
+        Called as ``progress(run, filter_name)`` before each filter run (with ``workers > 1``:
+        in the calling process, for every filter of a run once the run is done).
+    workers : int
+        Number of processes the runs are spread over (1: all in this process). Each run draws
+        from its own stream ``(seed, r)``, so the result is the same for any number of workers.
 
     Returns
     -------
@@ -251,34 +258,90 @@ def outage_study(
         raise InputError(f"outages {list(outages)} must lie inside the "
                          f"{traj.time[-1] - t0:g} s trajectory")
     windows = [(t0 + s, t0 + s + d) for s, d in outages]
-    clean = ideal_imu(traj, "increment")
-    h = np.diff(clean.time)
-    h = np.concatenate([h[:1], h])[:, None]
+    workers = check_positive_int(workers, name="workers")
+    setup = _Setup(traj, ideal_imu(traj, "increment"), specs, {a: truth[a] for a in AXES},
+                   g_sd, a_sd, tuple(outages), windows, seed, cep, sigma_v, sigma_vel, dt_filter)
     errors = {n: np.empty((runs, len(outages))) for n in specs}
     nees = {n: np.empty(runs) for n in specs}
     n_states: dict[str, int] = {}
-    for r in range(runs):
-        rng = np.random.default_rng([seed, r])
-        noisy = add_sensor_errors(clean, {a: truth[a] for a in AXES}, rng)
-        bias = np.concatenate([rng.normal(0.0, g_sd), rng.normal(0.0, a_sd)])
-        imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h,
-                      "increment")
-        gnss = gnss_measurements(traj, 1.0, cep=cep, sigma_v=sigma_v, sigma_vel=sigma_vel,
-                                 rng=rng)
-        init = _initial_state(traj, rng)
-        for name, (gyro, accel) in specs.items():
-            if progress is not None:
-                progress(r, name)
-            flt = LooselyCoupledFilter(gyro, accel, dt_filter=dt_filter,
-                                       gyro_bias_sd=float(np.max(g_sd)),
-                                       accel_bias_sd=float(np.max(a_sd)))
-            res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss, init=init,
-                          outages=outages, truth=traj)
-            errors[name][r] = max_outage_errors(traj, res.time, res.lat, res.lon, windows)
-            nees[name][r] = res.mean_nees
-            n_states[name] = len(res.state_names)
+
+    def keep(r: int, result: list[tuple[str, np.ndarray, float, int]]) -> None:
+        for name, err, avg_nees, n in result:
+            errors[name][r], nees[name][r], n_states[name] = err, avg_nees, n
+
+    if workers == 1 or runs == 1:
+        for r in range(runs):
+            keep(r, setup.run(r, progress))
+    else:
+        with concurrent.futures.ProcessPoolExecutor(
+                max_workers=min(workers, runs), initializer=_install, initargs=(setup,)) as pool:
+            futures = {pool.submit(_run_installed, r): r for r in range(runs)}
+            for fut in concurrent.futures.as_completed(futures):
+                r = futures[fut]
+                if progress is not None:
+                    for name in specs:
+                        progress(r, name)
+                keep(r, fut.result())
     return OutageStudy(tuple(specs), tuple((float(s), float(d)) for s, d in outages), errors,
                        nees, runs, seed, n_states)
+
+
+@attrs.frozen
+class _Setup:
+    """Everything a run needs (sent once to each worker process)."""
+
+    traj: Trajectory
+    clean: ImuData
+    specs: dict
+    truth: dict
+    g_sd: np.ndarray
+    a_sd: np.ndarray
+    outages: tuple
+    windows: list
+    seed: int
+    cep: float
+    sigma_v: float
+    sigma_vel: float | None
+    dt_filter: float
+
+    def run(self, r: int, progress: Callable[[int, str], None] | None = None
+            ) -> list[tuple[str, np.ndarray, float, int]]:
+        """Run `r`: (filter name, max error per outage, average NEES, number of states)."""
+        traj, clean = self.traj, self.clean
+        h = np.diff(clean.time)
+        h = np.concatenate([h[:1], h])[:, None]
+        rng = np.random.default_rng([self.seed, r])
+        noisy = add_sensor_errors(clean, self.truth, rng)
+        bias = np.concatenate([rng.normal(0.0, self.g_sd), rng.normal(0.0, self.a_sd)])
+        imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h,
+                      "increment")
+        gnss = gnss_measurements(traj, 1.0, cep=self.cep, sigma_v=self.sigma_v,
+                                 sigma_vel=self.sigma_vel, rng=rng)
+        init = _initial_state(traj, rng)
+        out = []
+        for name, (gyro, accel) in self.specs.items():
+            if progress is not None:
+                progress(r, name)
+            flt = LooselyCoupledFilter(gyro, accel, dt_filter=self.dt_filter,
+                                       gyro_bias_sd=float(np.max(self.g_sd)),
+                                       accel_bias_sd=float(np.max(self.a_sd)))
+            res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss, init=init,
+                          outages=self.outages, truth=traj)
+            out.append((name, max_outage_errors(traj, res.time, res.lat, res.lon, self.windows),
+                        float(res.mean_nees), len(res.state_names)))
+        return out
+
+
+_INSTALLED: list[_Setup] = []
+
+
+def _install(setup: _Setup) -> None:
+    """Worker initializer: keep the study's set-up for the runs this process gets."""
+    _INSTALLED[:] = [setup]
+
+
+def _run_installed(r: int) -> list[tuple[str, np.ndarray, float, int]]:
+    return _INSTALLED[0].run(r)
 
 
 def _initial_state(traj: Trajectory, rng: np.random.Generator) -> InitialState:

@@ -4,6 +4,7 @@ CLI's CSV inputs: outputs, accuracy against the emulation's truth, the calibrati
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -75,6 +76,38 @@ def test_navigate_writes_an_accurate_trajectory(recording, tmp_path, capsys) -> 
     assert "calibration.json" in report and "(30.0, 15.0)" in report
 
 
+ARM = (1.2, -0.6, -1.5)  # m, IMU to antenna, body x/y/z
+
+
+def test_navigate_estimates_the_lever_arm(recording, tmp_path) -> None:
+    folder, truth = recording
+    gnss = gnss_measurements(truth, 1.0, sigma_h=0.3, sigma_v=0.5, sigma_vel=0.05, lever_arm=ARM,
+                             rng=7)
+    np.savetxt(tmp_path / "gnss.csv", np.column_stack([gnss.time, gnss.lat, gnss.lon, gnss.height,
+                                                       gnss.vel_ned, gnss.sd]),
+               delimiter=",", fmt="%.17g", comments="",
+               header="time,lat,lon,height,vn,ve,vd,sd_n,sd_e,sd_d")
+    common = [str(folder / "imu.csv"), str(tmp_path / "gnss.csv"), "--calibration",
+              str(folder / "calibration.json"), "--init", _init_text(truth), "--gyro-bias-sd",
+              "1e-4", "--accel-bias-sd", "0.01", "--no-plots"]
+    errors = {}
+    for name, extra in (("estimated", ["--lever-arm-sd", "2"]), ("ignored", [])):
+        out = tmp_path / name
+        assert main(["navigate", *common, "--out", str(out), *extra]) == 0
+        table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+        errors[name] = np.median(horizontal_error(truth, table[:, 0], table[:, 1], table[:, 2]))
+    report = (tmp_path / "estimated" / "report.txt").read_text()
+    line = next(x for x in report.splitlines() if x.startswith("lever arm"))
+    est = [float(v) for v in re.findall(r"([xyz]) (-?[0-9.]+) \+- ([0-9.]+)", line)
+           for v in v[1:]]
+    arm, sd = np.array(est[0::2]), np.array(est[1::2])
+    assert np.all(np.abs(arm - ARM) < 3 * sd + 0.05), (arm, sd)
+    assert np.all(sd[:2] < 0.5)  # the turns make x and y observable; z (height) barely is
+    assert sd[2] <= 2.0
+    assert "(fixed)" in (tmp_path / "ignored" / "report.txt").read_text()
+    assert errors["estimated"] < 0.5 * errors["ignored"], errors
+
+
 def test_navigate_aligns_itself_and_plots(recording, tmp_path) -> None:
     pytest.importorskip("matplotlib")
     folder, truth = recording
@@ -95,6 +128,8 @@ def test_navigate_aligns_itself_and_plots(recording, tmp_path) -> None:
         (["--init", "a,b"], "--init must be 9"),
         (["--gyro-bias-sd", "-1"], "--gyro-bias-sd must be"),
         (["--outage", "10", "0"], "DURATION must be positive"),
+        (["--lever-arm-sd", "1", "2"], "one or three values"),
+        (["--lever-arm-sd", "-1"], "--lever-arm-sd must be"),
         (["--calibration", "absent.json"], "no such calibration file"),
     ],
 )
@@ -124,14 +159,15 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
 @pytest.mark.slow
 def test_outages_cli_quick(recording, capsys) -> None:
     folder, _ = recording
-    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
-                 "--quick", "--gyro-bias-sd", "1e-4"])
+    code = main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "2",
+                 "--workers", "2", "--quick", "--gyro-bias-sd", "1e-4"])
     assert code == 0
     out = capsys.readouterr().out
     assert "60+30 s" in out and "130+30 s" in out
     assert "calibrated" in out and "white noise" in out and "mean NEES" in out
-    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs",
-                 "0"]) == 2
+    assert "2 run(s)" in out
+    for bad in (["--runs", "0"], ["--workers", "0"], ["--dt-filter", "0"]):
+        assert main(["outages", "--calibration", str(folder / "calibration.json"), *bad]) == 2
 
 
 def test_white_part() -> None:

@@ -186,6 +186,78 @@ def test_series_discretisation_matches_van_loan():
         np.testing.assert_allclose(Q, Q2, rtol=1e-8, atol=1e-11 * np.abs(Q2).max())
 
 
+def _stiff_error_model(dt):
+    """Navigation-like F and W coupled to the blocks of a GMWM-like ``3*GM + WN`` whose GM
+    correlation times are far below (1e-4 s, 1e-20 s) and far above (1e4 s) the step."""
+    taus, sigmas = (1e-4, 1e4, 1e-20), (2e-3, 1e-3, 1e-2)
+    model = WN.from_density(1e-4, FS)
+    for tau, sig in zip(taus, sigmas):
+        model = model + GM.from_correlation_time(tau, sig)
+    cont = model.bind(FS).augment(dt).continuous
+    rng = np.random.default_rng(3)
+    F = np.zeros((9 + 3, 9 + 3))
+    F[:9, :9] = rng.normal(size=(9, 9)) * 1e-3
+    F[0:3, 3:6] = np.eye(3)
+    F[3:9, 9:] = rng.normal(size=(6, 3))
+    F[9:, 9:] = cont.F
+    W = np.zeros_like(F)
+    W[3:9, 3:9] = np.eye(6) * 1e-6
+    W[9:, 9:] = cont.G @ cont.Qc @ cont.G.T
+    return F, W, np.array(taus), np.array(sigmas)
+
+
+def test_discretisation_is_exact_on_poles_far_from_the_step():
+    # a Gauss-Markov pole 1e20/s overflowed the unscaled power series (NaN covariance)
+    dt = 1.0
+    F, W, taus, sigmas = _stiff_error_model(dt)
+    Phi, Q = _discretise(F, W, dt)
+    assert np.isfinite(Phi).all() and np.isfinite(Q).all()
+    phi = np.exp(-dt / taus)  # closed-form Gauss-Markov discretisation
+    np.testing.assert_allclose(Phi[9:, 9:], np.diag(phi), rtol=1e-13, atol=1e-300)
+    np.testing.assert_allclose(Q[9:, 9:], np.diag(sigmas**2 * (1 - phi**2)), rtol=1e-12,
+                               atol=1e-300)
+    assert np.linalg.eigvalsh(Q)[0] > -1e-12 * np.abs(Q).max()
+    # without the 1e20/s pole Van Loan (scipy's expm, its own scaling) is an independent check
+    keep = np.r_[0:11]
+    F2, W2 = F[np.ix_(keep, keep)], W[np.ix_(keep, keep)]
+    Phi2, Q2 = _discretise(F2, W2, dt)
+    Phi3, Q3 = van_loan(ContinuousBlock(F2, np.eye(11), W2), dt)
+    np.testing.assert_allclose(Phi2, Phi3, rtol=1e-9, atol=1e-12 * np.abs(Phi3).max())
+    np.testing.assert_allclose(Q2, Q3, rtol=1e-8, atol=1e-11 * np.abs(Q3).max())
+    # the pole at 1e20/s acts on the navigation states as white noise of PSD 2 sigma^2 tau:
+    # dropping it changes the navigation block of Q by that white noise only (< 1e-20 here)
+    np.testing.assert_allclose(Phi[:11, :11], Phi2, rtol=1e-12, atol=1e-12)
+    bad = F.copy()
+    bad[11, 11] = -np.inf
+    with pytest.raises(InputError, match="non-finite"):
+        _discretise(bad, W, dt)
+
+
+def test_a_sub_sample_gauss_markov_process_is_the_white_noise_it_is_at_the_imu_rate(
+        truth, clean_imu):
+    # correlation times of 1e-4 s and 1e-20 s (a GMWM fit can return either) at 100 Hz: each
+    # sample is independent, variance sigma^2; the filter must treat them as that white noise
+    # (integrated in continuous time they would give 2 sigma^2 Tc, far too little), and the
+    # 1e-20 s pole once overflowed the discretisation
+    imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
+    sig = (2e-4, 1e-4)
+    fast = (GYRO + GM.from_correlation_time(1e-4, sig[0])
+            + GM.from_correlation_time(1e-20, sig[1])).bind(FS)
+    wn_var = GYRO.augment(1.0 / FS).white_var + sig[0] ** 2 + sig[1] ** 2
+    white = (WN(sigma2=wn_var) + GYRO.processes[1]).bind(FS)
+    sel = truth.time <= 5.0
+    runs = [LooselyCoupledFilter(m, ACCEL, dt_filter=0.1, lever_arm=ARM).run(
+        imu.time[sel], imu.gyro[sel], imu.accel[sel], kind="increment", gnss=gnss, init=init)
+        for m in (fast, white)]
+    assert len(runs[0].state_names) == len(runs[1].state_names)  # the two fast states are gone
+    np.testing.assert_allclose(runs[0].epoch_sd, runs[1].epoch_sd, rtol=1e-12)
+    np.testing.assert_allclose(runs[0].lat, runs[1].lat, rtol=0, atol=1e-12)
+    # a process correlated over several samples keeps its state
+    slow = (GYRO + GM.from_correlation_time(0.05, sig[0])).bind(FS)
+    assert len(LooselyCoupledFilter(slow, ACCEL).state_names(1.0 / FS)) == \
+        len(LooselyCoupledFilter(GYRO, ACCEL).state_names(1.0 / FS)) + 3
+
+
 def test_heading_jacobian_by_finite_differences():
     rng = np.random.default_rng(4)
     for _ in range(20):

@@ -96,3 +96,24 @@ def test_bad_input() -> None:
     with pytest.raises(InputError, match="gyro_bias_sd"):
         outage_study({"x": TRUTH}, TRUTH, runs=1, profile=PROFILE[:2], rate=FS,
                      outages=[(1.0, 2.0)], gyro_bias_sd=-1.0)
+
+
+def test_workers_give_the_serial_result() -> None:
+    # each run draws from its own stream (seed, r): spreading the runs over processes changes
+    # nothing, to the bit
+    profile, outages = [Segment(15, speed=10), Segment(10, turn=60), Segment(15)], [(20.0, 10.0)]
+    kw = dict(runs=3, seed=5, profile=profile, rate=FS, outages=outages, gyro_bias_sd=1e-3,
+              accel_bias_sd=0.02)
+    filters = {"true": TRUTH, "white": WHITE}
+    seen = []
+    serial = outage_study(filters, TRUTH, **kw)
+    parallel = outage_study(filters, TRUTH, workers=2, progress=lambda r, n: seen.append((r, n)),
+                            **kw)
+    for name in filters:
+        np.testing.assert_array_equal(parallel.max_error[name], serial.max_error[name])
+        np.testing.assert_array_equal(parallel.nees[name], serial.nees[name])
+    assert parallel.n_states == serial.n_states
+    assert sorted(seen) == [(r, n) for r in range(3) for n in sorted(filters)]
+    assert np.all(serial.max_error["true"] > 0)
+    with pytest.raises(InputError, match="workers"):
+        outage_study(filters, TRUTH, workers=0, **kw)
