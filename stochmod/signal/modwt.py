@@ -433,7 +433,11 @@ def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]
     size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
     bufs = np.empty((2, size))  # the block buffers (numpy: scratch and local)
     scratch, local = bufs
-    src, n_valid, j = x, x.size, 1
+    # the compiled loops keep reassociated partial sums whose order follows the memory layout:
+    # a strided view (a column of a 2-D array) is made contiguous so that it gives the digits
+    # of the same data stored contiguously
+    src = np.ascontiguousarray(x) if haar_jit.AVAILABLE else x
+    n_valid, j = x.size, 1
     while j <= levels:
         k = _haar_block(levels, j, _CHUNK)
         last = j + k - 1 == levels

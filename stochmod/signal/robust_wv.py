@@ -510,7 +510,8 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     # path keeps m_scale's, so that it gives m_scale's numbers bit for bit
     sub_size = 16384 if jit else 65536
     if jit:  # level 1 reads x and writes V_1 to the work array; then in place
-        v, work = x, np.empty(n_valid - 1)
+        # contiguous: the compiled sums' order follows the memory layout (see modwt)
+        v, work = np.ascontiguousarray(x), np.empty(n_valid - 1)
         # room for the coefficients outside the core: an outlier touches 2^j of them
         big_idx = np.empty(max(1024, n_valid // 8), dtype=np.int64)
         big_w = np.empty(big_idx.size)
