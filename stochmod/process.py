@@ -162,7 +162,7 @@ class Process(abc.ABC):
     @property
     def is_free(self) -> bool:
         """True when at least one parameter has no value."""
-        return bool(self.free_names)
+        return any(getattr(self, spec.name) is None for spec in self.parameters())
 
     @property
     def n_params(self) -> int:

@@ -317,3 +317,17 @@ def test_summary_lists_every_parameter(GM, WN) -> None:
     assert text.splitlines()[0] == "Model GM+WN at 100 Hz"
     for word in ("beta", "sigma2", "1/s", "free"):
         assert word in text
+
+
+def test_with_processes_is_the_evolved_model_and_refuses_another_composition():
+    m = model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=1e-4)", 100.0)
+    theta = m.to_unconstrained() + 0.25
+    procs = tuple(p.from_unconstrained(t) for p, t in zip(m.processes, np.split(theta, [2])))
+    direct = m.with_processes(procs)
+    assert direct == Model(procs, freq=100.0) and hash(direct) == hash(Model(procs, freq=100.0))
+    assert direct == m.from_unconstrained(theta) and repr(direct) == repr(Model(procs, freq=100.0))
+    np.testing.assert_array_equal(direct.wv(10), Model(procs, freq=100.0).wv(10))
+    with pytest.raises(SpecError, match="takes 2 Process"):
+        m.with_processes(procs[:1])
+    with pytest.raises(SpecError, match="takes 2 Process"):
+        m.with_processes((procs[0], "WN"))

@@ -132,7 +132,7 @@ class Problem:
         theta = self._theta(x)
         procs = tuple(p.from_unconstrained(theta[s])
                       for p, s in zip(self.template.processes, self._slices))
-        return self._remember(self._models, key, attrs.evolve(self.template, processes=procs))
+        return self._remember(self._models, key, self.template.with_processes(procs))
 
     def phi(self, x: np.ndarray) -> np.ndarray:
         """Binding function: the model's Haar WV at `x`, levels 1..J, unit^2."""
