@@ -267,7 +267,17 @@ class Model:
         freq = self._freq()
         n = check_positive_int(n, name="n")
         children = as_generator(rng).spawn(len(self.processes))
-        return np.sum([p.simulate(n, freq, g) for p, g in zip(self.processes, children)], axis=0)
+        total = None  # summed in place, in component order: the digits of np.sum(..., axis=0)
+        for p, g in zip(self.processes, children):
+            part = np.asarray(p.simulate(n, freq, g), dtype=np.float64)
+            if part.shape != (n,):
+                raise SpecError(f"{p.family}.simulate returned shape {part.shape} for "
+                                f"n = {n} samples (the contract: an array of shape (n,))")
+            if total is None:
+                total = part.copy()
+            else:
+                total += part
+        return total
 
     # ------------------------------------------------------------------ Kalman filter
     def augment(self, dt: float | None = None) -> StateSpaceBlock:

@@ -260,7 +260,8 @@ class GM(Process):
         phi, q = self.to_ar1(freq)
         g = as_generator(rng)
         x_prev = math.sqrt(self.sigma2) * g.standard_normal()
-        e = math.sqrt(q) * g.standard_normal(n)
+        e = g.standard_normal(n)
+        e *= math.sqrt(q)  # in place: the digits of sqrt(q) * e without a second array
         return scipy.signal.lfilter([1.0], [1.0, -phi], e, zi=[phi * x_prev])[0]
 
     # ------------------------------------------------------------------ estimation support
