@@ -74,8 +74,12 @@ def _positive(value: object, what: str) -> float:
     return v
 
 
+@functools.lru_cache(maxsize=8)
 def _levels_m(levels: int) -> np.ndarray:
-    return 2.0 ** np.arange(check_positive_int(levels, name="levels"))
+    """``m = 2^(j-1)`` for j = 1..`levels` (read-only: shared by every call)."""
+    m = 2.0 ** np.arange(check_positive_int(levels, name="levels"))
+    m.flags.writeable = False
+    return m
 
 
 @functools.lru_cache(maxsize=16)
