@@ -9,9 +9,10 @@ on them as they are (the default lattice, ``--scale 1``): a constant bias cancel
 wavelet coefficient, so it changes neither the wavelet variance nor the fits, and each column
 is fitted in its own unit.
 
-Part 1, end to end: the CLI as a user runs it (its selection on a pool of 2 worker
-processes), total wall time, the figure step (timed in the parent) and the peak resident
-memory of the parent and of the largest worker. Part 2, the stage split: the selection of one
+Part 1, end to end: the CLI as a user runs it (its selection's fits and then its figures on
+one pool of 2 worker processes, ``--jobs 2``), total wall time, the figure step (timed in the
+parent), the CPU time of the parent and the workers (the figure that a loaded machine
+disturbs least) and the peak resident memory of the parent and of the largest worker. Part 2, the stage split: the selection of one
 column (``--split``, default Gyro_X) run serially in this process, with ``wvar`` ("WV"),
 ``wv_covariance`` ("covariance", eq. 17) and the rest ("fits / selection") timed by wrapping
 the functions wherever stochmod's modules hold them; ``--profile N`` profiles that same serial
@@ -96,6 +97,13 @@ class InlineExecutor(concurrent.futures.Executor):
         return future
 
 
+def cpu_seconds() -> float:
+    """User + system CPU seconds of this process and of its finished child processes (the
+    selection's pool workers are joined, hence counted, when calibrate returns)."""
+    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
+                                                resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
 def rss_mb() -> float:
     """Current resident set size, MB (Linux /proc)."""
     with open("/proc/self/statm") as f:
@@ -110,6 +118,7 @@ def end_to_end(args: argparse.Namespace, clock: StageClock, t_at: float, n: int,
     if args.no_plots:
         argv.append("--no-plots")
     base = rss_mb()
+    cpu0 = cpu_seconds()
     with tempfile.TemporaryDirectory() as out:
         sink = io.StringIO()
         t0 = time.perf_counter()
@@ -119,6 +128,7 @@ def end_to_end(args: argparse.Namespace, clock: StageClock, t_at: float, n: int,
         finally:
             sys.stdout = stdout
         total = time.perf_counter() - t0
+    cpu = cpu_seconds() - cpu0
     if status != 0:
         sys.exit(f"stochmod calibrate exited with status {status}")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -126,11 +136,13 @@ def end_to_end(args: argparse.Namespace, clock: StageClock, t_at: float, n: int,
     figures = clock.seconds.pop("figures", 0.0)
     k = len(args.columns or []) or 6
     print(f"stochmod calibrate {FILE.name}: {k} column(s) x {n:,} samples at 100 Hz, default "
-          f"lattice{', no figures' if args.no_plots else ''} (selection on 2 worker processes)")
+          f"lattice{', no figures' if args.no_plots else ''} (fits and figures on 2 worker processes)")
     print(f"{'stage':24s} {'seconds':>9s} {'share':>7s} {'x oadev':>9s}")
     for stage, sec in [("select + report", total - figures), ("figures", figures),
                        ("total", total)]:
         print(f"{stage:24s} {sec:9.2f} {sec / total:7.1%} {sec / t_at:9.1f}")
+    print(f"CPU time, parent and workers: {cpu:.1f} s (x oadev {cpu / t_at:.1f}); on a machine "
+          f"nobody else uses, 2 cores need at least {cpu / 2:.1f} s of wall time for it")
     print(f"peak resident memory: parent {peak:.0f} MB ({peak - base:+.0f} MB over the "
           f"{base:.0f} MB before the run), largest worker {worker:.0f} MB; the data: "
           f"{k} x {nbytes / 2**20:.0f} MB")

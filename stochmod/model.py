@@ -171,9 +171,20 @@ class Model:
     def from_unconstrained(self, theta: ArrayLike) -> Model:
         """A copy with parameters mapped back from the unconstrained `theta`."""
         parts = self._split(self._check_size(theta))
-        return attrs.evolve(
-            self, processes=tuple(p.from_unconstrained(t) for p, t in zip(self.processes, parts))
-        )
+        return self.with_processes(tuple(p.from_unconstrained(t) for p, t in zip(self.processes, parts)))
+
+    def with_processes(self, processes: tuple[Process, ...]) -> Model:
+        """A copy (same `freq`) whose components are `processes`: one Process per component
+        of this model, each the image of its counterpart (``from_unconstrained``,
+        ``from_vector`` ...). Built directly, without the constructor's checks of a new
+        composition (an optimizer builds thousands of these)."""
+        if len(processes) != len(self.processes) or not all(isinstance(p, Process) for p in processes):
+            raise SpecError(f"model {self.name} takes {len(self.processes)} Process instances, "
+                            f"got {processes!r}")
+        new = object.__new__(Model)
+        object.__setattr__(new, "processes", tuple(processes))
+        object.__setattr__(new, "freq", self.freq)
+        return new
 
     def transform_jacobian(self, theta: ArrayLike) -> np.ndarray:
         """Block-diagonal ``d vector / d theta`` at `theta`."""
@@ -256,7 +267,17 @@ class Model:
         freq = self._freq()
         n = check_positive_int(n, name="n")
         children = as_generator(rng).spawn(len(self.processes))
-        return np.sum([p.simulate(n, freq, g) for p, g in zip(self.processes, children)], axis=0)
+        total = None  # summed in place, in component order: the digits of np.sum(..., axis=0)
+        for p, g in zip(self.processes, children):
+            part = np.asarray(p.simulate(n, freq, g), dtype=np.float64)
+            if part.shape != (n,):
+                raise SpecError(f"{p.family}.simulate returned shape {part.shape} for "
+                                f"n = {n} samples (the contract: an array of shape (n,))")
+            if total is None:
+                total = part.copy()
+            else:
+                total += part
+        return total
 
     # ------------------------------------------------------------------ Kalman filter
     def augment(self, dt: float | None = None) -> StateSpaceBlock:

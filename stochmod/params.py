@@ -7,6 +7,7 @@ do), so any vector of reals maps back to admissible values.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import attrs
@@ -16,7 +17,7 @@ from scipy.special import expit
 from stochmod.errors import DomainError
 
 __all__ = ["Parameter", "Domain", "DOMAINS", "ROLES", "SCALE_POWERS", "get_domain", "pacf_to_ar",
-           "ar_to_pacf"]
+           "ar_to_pacf", "scalar_contains"]
 
 #: What a parameter is to its family (declared by ``Parameter(..., role=...)``). The core reads
 #: rules from the roles instead of probing the family (docs/plugin_contract.md, "Roles"):
@@ -155,6 +156,23 @@ DOMAINS: dict[str, Domain] = {
         ),
     )
 }
+
+
+#: Scalar forms of :attr:`Domain.contains` for the built-in scalar domains (plain float
+#: comparisons, no numpy call): the same verdict on one float, used where a value is rebuilt
+#: many times (:meth:`stochmod.process.Process.from_unconstrained` in an optimizer).
+_SCALAR_CONTAINS: dict[str, Callable[[float], bool]] = {
+    "positive": lambda v: 0.0 < v < math.inf,
+    "real": math.isfinite,
+    "correlation": lambda v: -1.0 < v < 1.0,
+    "unit_interval": lambda v: 0.0 < v < 1.0,
+}
+
+
+def scalar_contains(name: str) -> Callable[[float], bool] | None:
+    """The scalar membership test of the built-in scalar domain `name` (a plain-float form of
+    its :attr:`Domain.contains`), or None for a vector or unknown domain."""
+    return _SCALAR_CONTAINS.get(name)
 
 
 def get_domain(name: str) -> Domain:

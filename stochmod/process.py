@@ -20,7 +20,7 @@ from __future__ import annotations
 import abc
 import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import attrs
@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import check_freq, check_positive_int
 from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.params import SCALE_POWERS, Parameter, get_domain
+from stochmod.params import SCALE_POWERS, Domain, Parameter, get_domain, scalar_contains
 from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
@@ -162,7 +162,7 @@ class Process(abc.ABC):
     @property
     def is_free(self) -> bool:
         """True when at least one parameter has no value."""
-        return bool(self.free_names)
+        return any(getattr(self, spec.name) is None for spec in self.parameters())
 
     @property
     def n_params(self) -> int:
@@ -274,13 +274,42 @@ class Process(abc.ABC):
         ])
 
     def from_unconstrained(self, theta: ArrayLike) -> Process:
-        """A copy whose parameters are the image of `theta` under the domains' inverse maps."""
+        """A copy whose parameters are the image of `theta` under the domains' inverse maps.
+
+        Families whose parameters are all scalars of built-in domains, and which keep the
+        base class's construction (:meth:`parameters`, :meth:`from_vector`,
+        ``__attrs_post_init__``), take a validated fast path: the same values and the same
+        domain verdicts, with plain-float checks instead of a rebuild through ``attrs.evolve``
+        (an optimizer builds thousands of models). Values outside their domain (overflow at
+        extreme `theta`) go through the general path, which raises as before.
+        """
         theta = np.asarray(theta, dtype=np.float64).reshape(-1)
+        layout = _scalar_layout(type(self))
+        if layout is not None and theta.size == len(layout):
+            fast = self._from_scalar_theta(theta, layout)
+            if fast is not None:
+                return fast
         out, i = [], 0
         for p in self.parameters():
             out.append(np.atleast_1d(get_domain(p.domain).from_unconstrained(theta[i : i + p.size])))
             i += p.size
         return self.from_vector(np.concatenate(out) if out else np.zeros(0))
+
+    def _from_scalar_theta(self, theta: np.ndarray, layout: _ScalarLayout) -> Process | None:
+        """:meth:`from_unconstrained` for the families of :func:`_scalar_layout`: a copy whose
+        fields are set directly, or None when a value falls outside its domain."""
+        values = []
+        for i, (_, domain, contains) in enumerate(layout):
+            v = float(domain.from_unconstrained(theta[i : i + 1])[0])
+            if not contains(v):
+                return None
+            values.append(v)
+        new = object.__new__(type(self))
+        for name in _field_names(type(self)):
+            object.__setattr__(new, name, getattr(self, name))
+        for (name, _, _), v in zip(layout, values):
+            object.__setattr__(new, name, v)
+        return new
 
     def transform_jacobian(self, theta: ArrayLike) -> np.ndarray:
         """Block-diagonal Jacobian ``d vector / d theta`` of :meth:`from_unconstrained`."""
@@ -504,6 +533,32 @@ def psd_of(process: Process, f: ArrayLike, freq: float) -> np.ndarray:
         raise NotImplementedError(f"{process.family} declares no PSD (psd = None: its theory "
                                   "comes from simulation, binding='simulated')")
     return process.psd(f, freq)
+
+
+_ScalarLayout = tuple[tuple[str, Domain, Callable[[float], bool]], ...]
+
+
+@functools.cache
+def _scalar_layout(cls: type[Process]) -> _ScalarLayout | None:
+    """(name, domain, scalar membership test) per parameter of `cls`, when
+    :meth:`Process.from_unconstrained` may build its instances directly: every parameter a
+    scalar of a built-in scalar domain (:func:`stochmod.params.scalar_contains`), and the
+    class keeps the base class's :meth:`~Process.parameters`, :meth:`~Process.from_vector`
+    and ``__attrs_post_init__`` (a family that checks more, like AR, is rebuilt in full)."""
+    if any(_overrides(cls, name) for name in ("parameters", "from_vector", "__attrs_post_init__")):
+        return None
+    layout = []
+    for spec in cls.parameter_specs:
+        contains = scalar_contains(spec.domain)
+        if spec.size != 1 or contains is None:
+            return None
+        layout.append((spec.name, get_domain(spec.domain), contains))
+    return tuple(layout)
+
+
+@functools.cache
+def _field_names(cls: type[Process]) -> tuple[str, ...]:
+    return tuple(f.name for f in attrs.fields(cls))
 
 
 @functools.lru_cache(maxsize=None)

@@ -7,9 +7,11 @@ filter has width ``2^j`` and averages ``m = 2^(j-1)`` samples per half.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from scipy import sparse
 
 from stochmod.signal.modwt import filter_width, squared_gain
 
@@ -143,16 +145,15 @@ def wv_covariance_from_psd(
     J = M.size
     out = np.empty((J, J))
     if wavelet == "haar":
-        extra = [b / freq for b in breakpoints if 0 < b / freq < 0.5]
-
-        def s2(x: np.ndarray) -> np.ndarray:  # S^2 per (cycle/sample)^2
-            s = np.asarray(psd(x * freq), dtype=np.float64) * freq
-            return s * s
-
+        extra = tuple(b / freq for b in breakpoints if 0 < b / freq < 0.5)
+        nodes, weights = _haar_covariance_plan(J, extra)
+        s = np.asarray(psd(nodes * freq), dtype=np.float64) * freq  # per cycle/sample
+        integrals = 2.0 * (weights @ (s * s))
+        row = 0
         for k in range(1, J + 1):
             for j in range(1, k + 1):
-                integral = 2.0 * _haar_product_integral(s2, 2 ** (j - 1), 2 ** (k - 1), extra)
-                out[j - 1, k - 1] = out[k - 1, j - 1] = 2.0 * integral / max(M[j - 1], M[k - 1])
+                out[j - 1, k - 1] = out[k - 1, j - 1] = 2.0 * integrals[row] / max(M[j - 1], M[k - 1])
+                row += 1
         return out
     for k in range(1, J + 1):
         edges = _panel_edges(k, wavelet, freq, breakpoints)  # the deeper level's lobes
@@ -171,33 +172,28 @@ def wv_covariance_from_psd(
 _EXACT_LOBES = 16
 
 
-def _gl_integral(fun: Callable[[np.ndarray], np.ndarray], edges: np.ndarray) -> float:
-    """``int fun`` over [edges[0], edges[-1]] by 12-point Gauss-Legendre on each panel."""
+def _gl_rule(edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of 12-point Gauss-Legendre on each panel between the sorted, distinct
+    `edges` (cycles/sample): ``int fun ~ sum(weights * fun(nodes))``."""
     edges = np.unique(edges)
     a, b = edges[:-1], edges[1:]
     half = 0.5 * (b - a)
     x = (a + half)[:, None] + half[:, None] * _GL_NODES[None, :]
-    return float(np.sum(half * (fun(x) @ _GL_WEIGHTS)))
+    return x.ravel(), (half[:, None] * _GL_WEIGHTS[None, :]).ravel()
 
 
-def _haar_product_integral(s2: Callable[[np.ndarray], np.ndarray], mj: int, mk: int,
-                           breakpoints: Sequence[float]) -> float:
-    """``int_0^{1/2} |H_j|^2 |H_k|^2 S^2 df`` for Haar half-widths ``mj <= mk`` (see
-    :func:`wv_covariance_from_psd`)."""
+def _haar_product_rule(mj: int, mk: int, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of ``int_0^{1/2} |H_j|^2 |H_k|^2 S^2 df ~ sum(weights * S^2(nodes))``
+    for Haar half-widths ``mj <= mk`` (see :func:`wv_covariance_from_psd`): the gains, and
+    their lobe averages beyond the exactly integrated lobes, are folded into the weights."""
     def sin2(x: np.ndarray) -> np.ndarray:
         return np.sin(np.pi * x) ** 2
 
-    def exact(x: np.ndarray) -> np.ndarray:
-        return squared_gain(x, mj.bit_length(), "haar") * squared_gain(x, mk.bit_length(), "haar") * s2(x)
-
-    def k_averaged(x: np.ndarray) -> np.ndarray:
-        return squared_gain(x, mj.bit_length(), "haar") * 0.375 / (mk * mk * sin2(x)) * s2(x)
+    def gain(x: np.ndarray, m: int) -> np.ndarray:
+        return squared_gain(x, m.bit_length(), "haar")
 
     ratio = mk // mj
     both = 35.0 / 128.0 if ratio == 1 else 7.0 / 64.0 if ratio == 2 else 9.0 / 64.0
-
-    def both_averaged(x: np.ndarray) -> np.ndarray:
-        return both / (mj * mj * mk * mk * sin2(x) ** 2) * s2(x)
 
     def octaves(lo: float, hi: float) -> np.ndarray:  # 4 panels per octave, then the breakpoints
         edges = lo * 2.0 ** (np.arange(0, 4 * np.log2(hi / lo) + 1) / 4.0)
@@ -208,16 +204,40 @@ def _haar_product_integral(s2: Callable[[np.ndarray], np.ndarray], mj: int, mk: 
     f_j = min(_EXACT_LOBES / mj, 0.5)
     near_zero = (0.5 / mk) * 2.0 ** -np.arange(0, 60)
     lobes_k = np.arange(0, _EXACT_LOBES + 1) / mk
-    edges = np.concatenate([near_zero, lobes_k[lobes_k < f_k], [f_k],
-                            [b for b in breakpoints if b < f_k]])
-    total = _gl_integral(exact, edges)
-    if f_k < f_j:
+    x, w = _gl_rule(np.concatenate([near_zero, lobes_k[lobes_k < f_k], [f_k],
+                                    [b for b in breakpoints if b < f_k]]))
+    nodes, weights = [x], [w * gain(x, mj) * gain(x, mk)]
+    if f_k < f_j:  # k's gain by its lobe average 3/8 / (mk^2 sin^2)
         lobes_j = np.arange(0, _EXACT_LOBES + 1) / mj
-        edges = np.concatenate([octaves(f_k, min(1.0 / mj, f_j)), lobes_j[(lobes_j > f_k) & (lobes_j < f_j)], [f_j]])
-        total += _gl_integral(k_averaged, edges)
-    if f_j < 0.5:
-        total += _gl_integral(both_averaged, octaves(f_j, 0.5))
-    return total
+        x, w = _gl_rule(np.concatenate([octaves(f_k, min(1.0 / mj, f_j)),
+                                        lobes_j[(lobes_j > f_k) & (lobes_j < f_j)], [f_j]]))
+        nodes.append(x)
+        weights.append(w * gain(x, mj) * 0.375 / (mk * mk * sin2(x)))
+    if f_j < 0.5:  # both gains by the average of their product
+        x, w = _gl_rule(octaves(f_j, 0.5))
+        nodes.append(x)
+        weights.append(w * both / (mj * mj * mk * mk * sin2(x) ** 2))
+    return np.concatenate(nodes), np.concatenate(weights)
+
+
+@functools.lru_cache(maxsize=16)
+def _haar_covariance_plan(levels: int, breakpoints: tuple[float, ...]) -> tuple[np.ndarray, sparse.csr_array]:
+    """The quadrature of every Haar pair ``j <= k`` of levels 1..`levels` at once.
+
+    Returns the distinct nodes (cycles/sample, shape (n,)) and a sparse (P, n) weight matrix,
+    one row per pair in the order ``k = 1..J, j = 1..k``, so that the P integrals
+    ``int_0^{1/2} |H_j|^2 |H_k|^2 S^2 df`` are ``weights @ S^2(nodes)``. Neither depends on
+    the PSD: a model covariance evaluates its PSD once, at the n nodes, whatever its
+    parameters (the plan is cached per number of levels and breakpoints, in cycles/sample).
+    """
+    rules = [_haar_product_rule(2 ** (j - 1), 2 ** (k - 1), breakpoints)
+             for k in range(1, levels + 1) for j in range(1, k + 1)]
+    nodes, column = np.unique(np.concatenate([x for x, _ in rules]), return_inverse=True)
+    row = np.repeat(np.arange(len(rules)), [x.size for x, _ in rules])
+    weights = sparse.csr_array((np.concatenate([w for _, w in rules]), (row, column.ravel())),
+                               shape=(len(rules), nodes.size))
+    nodes.flags.writeable = False
+    return nodes, weights
 
 
 def _panel_edges(level: int, wavelet: str, freq: float, breakpoints: Sequence[float]) -> np.ndarray:

@@ -84,6 +84,20 @@ def test_calibrate_lattice_and_json_output_match_the_file(gm_wn_file, tmp_path, 
     assert printed["columns"]["0"]["name"] == "GM+WN"
 
 
+def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys):
+    """The fits and figures on a pool of 2 worker processes give the same calibration.json and
+    the same figure bytes as everything in this process (--jobs 1)."""
+    pytest.importorskip("matplotlib")
+    base = ["calibrate", str(gm_wn_file), "--freq", "50", "--candidates", "WN", "GM+WN",
+            "--n-sim", "2", "--json"]
+    serial = run_json(base + ["--out", str(tmp_path / "one"), "--jobs", "1"], capsys)
+    pooled = run_json(base + ["--out", str(tmp_path / "two"), "--jobs", "2"], capsys)
+    assert pooled == serial
+    assert (tmp_path / "two" / "0.png").read_bytes() == (tmp_path / "one" / "0.png").read_bytes()
+    assert main(base + ["--out", str(tmp_path / "bad"), "--jobs", "0"]) == 2
+    assert "--jobs" in capsys.readouterr().err
+
+
 # ---------------------------------------------------------------- the bundled example
 def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
     report = run_json(["calibrate", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",

@@ -317,3 +317,37 @@ def test_summary_lists_every_parameter(GM, WN) -> None:
     assert text.splitlines()[0] == "Model GM+WN at 100 Hz"
     for word in ("beta", "sigma2", "1/s", "free"):
         assert word in text
+
+
+def test_with_processes_is_the_evolved_model_and_refuses_another_composition():
+    m = model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=1e-4)", 100.0)
+    theta = m.to_unconstrained() + 0.25
+    procs = tuple(p.from_unconstrained(t) for p, t in zip(m.processes, np.split(theta, [2])))
+    direct = m.with_processes(procs)
+    assert direct == Model(procs, freq=100.0) and hash(direct) == hash(Model(procs, freq=100.0))
+    assert direct == m.from_unconstrained(theta) and repr(direct) == repr(Model(procs, freq=100.0))
+    np.testing.assert_array_equal(direct.wv(10), Model(procs, freq=100.0).wv(10))
+    with pytest.raises(SpecError, match="takes 2 Process"):
+        m.with_processes(procs[:1])
+    with pytest.raises(SpecError, match="takes 2 Process"):
+        m.with_processes((procs[0], "WN"))
+
+
+def test_simulate_is_the_sum_of_the_components_own_simulations():
+    """Model.simulate adds the components' paths (child generators spawned in order) in
+    component order, and refuses a component path of the wrong shape."""
+    import attrs
+    from stochmod_wn import WN
+
+    m = model_from_spec("GM(beta=5.0, sigma2=1e-6) + RW(sigma2=1e-10) + WN(sigma2=1e-4)", 100.0)
+    children = np.random.default_rng(11).spawn(3)
+    parts = [p.simulate(5000, 100.0, g) for p, g in zip(m.processes, children)]
+    np.testing.assert_array_equal(m.simulate(5000, 11), (parts[0] + parts[1]) + parts[2])
+
+    @attrs.frozen
+    class ShortWN(WN):
+        def simulate(self, n, freq, rng):
+            return super().simulate(n - 1, freq, rng)
+
+    with pytest.raises(SpecError, match=r"WN.simulate returned shape \(99,\) for n = 100"):
+        Model((ShortWN(sigma2=1.0), WN(sigma2=1.0)), freq=1.0).simulate(100, 0)

@@ -179,3 +179,53 @@ def test_stationary_domain_accepts_a_scalar_coefficient_and_saturated_pacf_stays
     assert dom.contains(np.array(0.5)) and not dom.contains(np.array(1.0))
     phi = dom.from_unconstrained(np.array([40.0, -40.0]))
     assert np.all(np.abs(np.roots(np.r_[1.0, -phi])) < 1.0)
+
+
+@pytest.mark.parametrize("name", ["positive", "real", "correlation", "unit_interval"])
+def test_scalar_contains_gives_the_verdict_of_contains(name: str) -> None:
+    from stochmod.params import scalar_contains
+
+    contains = scalar_contains(name)
+    values = [0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1 - 2**-53, -1 + 2**-53, 5e-324, -5e-324, 1e308,
+              -1e308, np.inf, -np.inf, np.nan]
+    for v in values:
+        assert contains(v) == DOMAINS[name].contains(np.asarray(v)), (name, v)
+
+
+def test_scalar_contains_declines_vector_and_unknown_domains() -> None:
+    from stochmod.params import scalar_contains
+
+    assert scalar_contains("stationary_ar") is None and scalar_contains("nope") is None
+
+
+def test_fast_from_unconstrained_is_the_general_rebuild_bit_for_bit() -> None:
+    """Process.from_unconstrained's direct path (scalar built-in domains) gives the values,
+    types, equality and errors of the rebuild through from_vector and the domain checks."""
+    import warnings
+
+    from stochmod import model_from_spec
+    from stochmod.process import Process, _scalar_layout
+
+    model = model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=1e-4) + BI(B=1e-3, fc=0.1) "
+                            "+ AR(phi=[0.5], sigma2=1.0)", 100.0)
+    assert _scalar_layout(type(model.processes[-1])) is None  # AR checks more: full rebuild
+    rng = np.random.default_rng(3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for p in model.processes[:3]:
+            for scale in (1.0, 30.0, 800.0):  # 800: exp overflows and underflows
+                for _ in range(200):
+                    theta = rng.normal(0.0, scale, p.n_params)
+                    slow = fast = None
+                    try:
+                        values = [np.atleast_1d(get_domain(s.domain).from_unconstrained(theta[i:i + 1]))
+                                  for i, s in enumerate(p.parameters())]
+                        slow = Process.from_vector(p, np.concatenate(values))
+                    except DomainError as e:
+                        with pytest.raises(DomainError, match=str(e).split("=")[0]):
+                            p.from_unconstrained(theta)
+                        continue
+                    fast = p.from_unconstrained(theta)
+                    assert fast == slow and hash(fast) == hash(slow) and repr(fast) == repr(slow)
+                    for s in p.parameters():
+                        assert type(getattr(fast, s.name)) is float

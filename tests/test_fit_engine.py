@@ -115,3 +115,30 @@ def test_results_compose_and_never_override_cached_properties() -> None:
     assert {"wv_covariance", "null_wv_covariance", "jacobian", "cov_params", "jtest"} <= base
     overridden = base & set(vars(IndirectGMWMResult))
     assert not overridden, f"IndirectGMWMResult overrides cached properties {overridden}"
+
+
+def test_model_covariance_evaluates_the_psd_once_at_nodes_shared_by_every_model() -> None:
+    """The Haar model covariance evaluates the PSD once per call, at nodes that do not depend
+    on the model (the gains live in the cached weights), and its value is the same quadratic
+    form whatever was computed before: a PSD scaled by c gives c^2 times the covariance."""
+    from stochmod.theory import wv_covariance_from_psd
+
+    n_coef = 2**14 - 2 ** np.arange(1, 11) + 1
+    seen: list[np.ndarray] = []
+
+    def counted(model: stochmod.Model):
+        def psd(f: np.ndarray) -> np.ndarray:
+            seen.append(np.array(f))
+            return model.psd(f)
+        return psd
+
+    a = stochmod.model_from_spec("GM(beta=3.0, sigma2=2.0) + WN(sigma2=0.5)", FREQ)
+    b = stochmod.model_from_spec("GM(beta=0.3, sigma2=8.0) + WN(sigma2=2.0)", FREQ)
+    cov_a = wv_covariance_from_psd(counted(a), n_coef, FREQ)
+    cov_b = wv_covariance_from_psd(counted(b), n_coef, FREQ)
+    assert len(seen) == 2
+    np.testing.assert_array_equal(seen[0], seen[1])
+    scaled = stochmod.model_from_spec("GM(beta=3.0, sigma2=6.0) + WN(sigma2=1.5)", FREQ)
+    np.testing.assert_allclose(wv_covariance_from_psd(scaled.psd, n_coef, FREQ), 9.0 * cov_a,
+                               rtol=1e-13)
+    assert not np.allclose(cov_a, cov_b)

@@ -23,6 +23,7 @@ a bias instability B.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -73,8 +74,21 @@ def _positive(value: object, what: str) -> float:
     return v
 
 
+@functools.lru_cache(maxsize=8)
 def _levels_m(levels: int) -> np.ndarray:
-    return 2.0 ** np.arange(check_positive_int(levels, name="levels"))
+    """``m = 2^(j-1)`` for j = 1..`levels` (read-only: shared by every call)."""
+    m = 2.0 ** np.arange(check_positive_int(levels, name="levels"))
+    m.flags.writeable = False
+    return m
+
+
+@functools.lru_cache(maxsize=16)
+def _haar_wv(u: float, levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """``W_m(e^-u)`` and ``dW/du`` at m = 2^(j-1), j = 1..`levels` (read-only arrays): an
+    optimizer asks for a model's WV and then its Jacobian at the same point."""
+    w, dw = haar_wv_positive(u, _levels_m(levels))
+    w.flags.writeable = dw.flags.writeable = False
+    return w, dw
 
 
 @attrs.frozen
@@ -201,14 +215,13 @@ class GM(Process):
         if wavelet != "haar":
             return super().wv(levels, freq, wavelet)
         self.require_values()
-        u = self.beta / check_freq(freq)
-        return self.sigma2 * haar_wv_positive(u, _levels_m(levels))[0]
+        return self.sigma2 * _haar_wv(self.beta / check_freq(freq), levels)[0]
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
         """Columns ``d wv / d beta`` (u^2 s) and ``d wv / d sigma2`` (dimensionless), shape (levels, 2)."""
         self.require_values()
         freq = check_freq(freq)
-        w, dw_du = haar_wv_positive(self.beta / freq, _levels_m(levels))
+        w, dw_du = _haar_wv(self.beta / freq, levels)
         return np.column_stack([self.sigma2 / freq * dw_du, w])
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
@@ -251,7 +264,8 @@ class GM(Process):
         phi, q = self.to_ar1(freq)
         g = as_generator(rng)
         x_prev = math.sqrt(self.sigma2) * g.standard_normal()
-        e = math.sqrt(q) * g.standard_normal(n)
+        e = g.standard_normal(n)
+        e *= math.sqrt(q)  # in place: the digits of sqrt(q) * e without a second array
         return scipy.signal.lfilter([1.0], [1.0, -phi], e, zi=[phi * x_prev])[0]
 
     # ------------------------------------------------------------------ estimation support

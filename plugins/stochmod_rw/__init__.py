@@ -134,8 +134,12 @@ class RW(Process):
         self.require_values()
         n = check_positive_int(n, name="n")
         check_freq(freq)
-        steps = np.sqrt(self.sigma2) * as_generator(rng).standard_normal(n - 1)
-        return np.concatenate([[0.0], np.cumsum(steps)])
+        steps = as_generator(rng).standard_normal(n - 1)
+        steps *= np.sqrt(self.sigma2)
+        path = np.empty(n)
+        path[0] = 0.0
+        np.cumsum(steps, out=path[1:])  # in place: the digits of concatenate([0], cumsum)
+        return path
 
     # ------------------------------------------------------------------ estimation support
     def start(self, wv: np.ndarray, freq: float, *, index: int = 0, count: int = 1,

@@ -4,8 +4,11 @@ the Kalman-filter augmentation (``calibration.json``) and validation figures."""
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
+import contextlib
 import json
 import re
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +20,7 @@ from stochmod.cli.select import add_selection_arguments, select_columns, selecti
 from stochmod.errors import EstimationError, InputError
 from stochmod.fleet import SerialExecutor, run_fleet
 from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
+from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult, select
 from stochmod.io import Recording
 from stochmod.model import augment_axes
@@ -55,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--n-sim", type=int, default=20,
                    help="series simulated from each fit for the figures (default 20)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
+    p.add_argument("--jobs", type=int, default=2, metavar="N",
+                   help="worker processes for the selection's fits and the figures (default 2; "
+                        "1: all in this process)")
     extras.add_output_arguments(p)
     p.add_argument("--pooled", action="store_true",
                    help="FILE FILE ...: replicates of one sensor model; fit one model per column "
@@ -135,18 +142,41 @@ def _filename(column: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", column).strip("_") or "column"
 
 
+def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit: str) -> Path:
+    """One column's validation figure (module level: runs in a worker process)."""
+    from stochmod.plots import save_fit_figure
+
+    return save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=title, unit=unit)
+
+
 def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
-             units: dict[str, str]) -> list[Path]:
+             units: dict[str, str], executor: Any = None) -> list[Path]:
+    """The columns' figures, through `executor` when given (each simulates `n_sim` series of
+    the data's length: the figures are calibrate's second largest stage after the fits)."""
     import importlib.util
 
     if importlib.util.find_spec("matplotlib") is None:
         return []
-    from stochmod.plots import save_fit_figure
-
-    return [save_fit_figure(sel.best, out / f"{_filename(sel.column)}.png", n_sim=n_sim, rng=seed,
-                            title=f"{sel.column}: {sel.best.model.name}",
-                            unit=units.get(sel.column, "u"))
+    jobs = [(sel.best, out / f"{_filename(sel.column)}.png", n_sim, seed,
+             f"{sel.column}: {sel.best.model.name}", units.get(sel.column, "u"))
             for sel in results]
+    if executor is None:
+        return [_figure(*job) for job in jobs]
+    futures = [executor.submit(_figure, *job) for job in jobs]
+    return [f.result() for f in futures]
+
+
+@contextlib.contextmanager
+def _pool(executor: Any, jobs: int) -> Iterator[Any]:
+    """`executor` when given; else one pool of `jobs` worker processes for the selection's fits
+    and the figures (1: everything in this process)."""
+    if executor is not None:
+        yield executor
+    elif jobs == 1:
+        yield SerialExecutor()
+    else:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs) as pool:
+            yield pool
 
 
 def _table(results: list[SelectionResult], rec: Recording, freq: float,
@@ -243,20 +273,32 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
                    ) -> dict[str, Any]:
     """The single-file calibration: writes OUT/calibration.json (and the asked outputs), prints
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
-    `executor` runs the selection's fits (default: its own process pool)."""
+    `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
+    worker processes)."""
     segments, freq = _input(args)
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     dt = 1.0 / freq if args.dt is None else args.dt
     if not dt > 0:
         raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    jobs = getattr(args, "jobs", 2)
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
+    with _pool(executor, jobs) as pool:
+        return _calibrate(args, segments, freq, dt, pool, quiet)
+
+
+def _calibrate(args: argparse.Namespace, segments: list[Recording], freq: float, dt: float,
+               pool: Any, quiet: bool) -> dict[str, Any]:
+    """:func:`calibrate_file` once its input is read (the recording's gap-free `segments`),
+    with `pool` running the selection's fits and the figures."""
     # with --split-gaps the fits pool all segments; the Allan reading and the validation bands
     # of the datasheet and report use the longest one
     rec = max(segments, key=lambda r: r.data.shape[0])
     data = rec.data * args.scale
     sensor_units = extras.column_units(list(rec.columns), args,
                                        required=bool(args.triad or args.export or args.report))
-    results = select_columns(segments, freq, selection_options(args), args.scale, executor)
+    results = select_columns(segments, freq, selection_options(args), args.scale, pool)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)
@@ -279,7 +321,7 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
                                           if len(segments) > 1 else "")
     exported = extras.write_exports_for(args, results, sensor_units, out)
     units = XSENS_UNITS if args.file is None else rec.unit_map()
-    figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units)
+    figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units, pool)
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {freq:g} Hz)")
     figures += extras.write_report_for(args, results, data, sheets, exported, triads, title, out)

@@ -58,6 +58,9 @@ STAGE1_TOLERANCE = (1e-8, 100)
 #: (tolerance, evaluation cap) of the refinement on eq. 20.
 REFINE_TOLERANCE = (1e-12, 2000)
 
+#: Points whose model and binding value a :class:`Problem` remembers.
+_REMEMBERED = 4
+
 _FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError)
 
 
@@ -100,23 +103,53 @@ class Problem:
         # Omega = L^T L: L is the transposed Cholesky factor of Omega
         self.L = np.linalg.cholesky(omega).T
         self.omega = omega
+        # each process's slice of the parameter vector
+        ends = np.cumsum([p.n_params for p in template.processes])
+        self._slices = [slice(int(e) - p.n_params, int(e)) for e, p in zip(ends, template.processes)]
+        # the last few points evaluated: the optimizer asks for phi, then dphi, at one point,
+        # and the search re-evaluates the points its local searches returned
+        self._models: dict[bytes, Model] = {}
+        self._phis: dict[bytes, np.ndarray] = {}
+
+    def _theta(self, x: np.ndarray) -> np.ndarray:
+        theta = self.theta_full.copy()
+        theta[self.mask] = x
+        return theta
+
+    @staticmethod
+    def _remember(cache: dict, key: bytes, value: Any) -> Any:
+        if len(cache) >= _REMEMBERED:
+            del cache[next(iter(cache))]
+        cache[key] = value
+        return value
 
     def model(self, x: np.ndarray) -> Model:
         """The model at free unconstrained values `x`."""
-        theta = self.theta_full.copy()
-        theta[self.mask] = x
-        return self.template.from_unconstrained(theta)
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        found = self._models.get(key)
+        if found is not None:
+            return found
+        theta = self._theta(x)
+        procs = tuple(p.from_unconstrained(theta[s])
+                      for p, s in zip(self.template.processes, self._slices))
+        return self._remember(self._models, key, self.template.with_processes(procs))
 
     def phi(self, x: np.ndarray) -> np.ndarray:
         """Binding function: the model's Haar WV at `x`, levels 1..J, unit^2."""
-        return self.model(x).wv(self.levels)
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        found = self._phis.get(key)
+        if found is None:
+            found = self._remember(self._phis, key, self.model(x).wv(self.levels))
+            found.flags.writeable = False
+        return found
 
     def dphi(self, x: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`phi` on the free unconstrained scale, shape (J, n_free)."""
-        theta = self.theta_full.copy()
-        theta[self.mask] = x
-        m = self.template.from_unconstrained(theta)
-        D = m.wv_jacobian(self.levels) @ m.transform_jacobian(theta)
+        theta = self._theta(x)
+        m = self.model(x)
+        D = m.wv_jacobian(self.levels)
+        for p, s in zip(m.processes, self._slices):  # times the block-diagonal d vector / d theta
+            D[:, s] = D[:, s] @ p.transform_jacobian(theta[s])
         return D[:, self.mask]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:

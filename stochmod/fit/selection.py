@@ -192,7 +192,8 @@ class _Column:
 
 @attrs.frozen
 class _Task:
-    """One GMWM fit; plain picklable data (specs, not models or callables).
+    """One GMWM fit; plain picklable data (a spec and the starts' unconstrained parameter
+    vectors of the child's full model, not models or callables).
 
     A root (no fitted parent) gets gmwm's full multi-start search. A child gets local
     searches from the best ``_CHILD_KEEP`` of `screen` (padded parents, family guesses) by
@@ -207,8 +208,8 @@ class _Task:
     shared: _Column
     weighting: str
     seed: int
-    starts: tuple[dict, ...] = ()
-    screen: tuple[dict, ...] = ()
+    starts: tuple[np.ndarray, ...] = ()
+    screen: tuple[np.ndarray, ...] = ()
 
     @property
     def root(self) -> bool:
@@ -264,11 +265,8 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     """A child's fit: local least-squares searches of eq. 20 from its screened starts."""
     problem = Problem(base.start(nu_hat), nu_hat, task.shared.omega, mask)
 
-    def point(spec: dict) -> np.ndarray:
-        return model_from_spec(spec, task.freq).to_unconstrained()[mask]
-
     gen = np.random.default_rng(task.seed)
-    pool = [point(s) for s in task.screen]
+    pool = [s[mask] for s in task.screen]
     pool.append(problem.theta_full[mask])
     pool.extend(base.start(nu_hat, rng=gen).to_unconstrained()[mask] for _ in range(_CHILD_RANDOM))
     values = np.array([problem.safe_objective(x) for x in pool])
@@ -276,7 +274,7 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
               if np.isfinite(values[i])]
     best_screened = float(np.min(values)) if values.size else np.inf
     for s in task.starts:  # searched unless a screened start is already as good
-        x = point(s)
+        x = s[mask]
         if not problem.safe_objective(x) >= best_screened:
             chosen.insert(0, x)
     best: dict[str, Any] | None = None
@@ -371,15 +369,16 @@ def _child_starts(child: Model, parents: list[GMWMResult], nu_hat: np.ndarray, f
                   ) -> tuple[tuple[dict, ...], tuple[dict, ...]]:
     """Starts of a child from its fitted parents.
 
-    Returns ``(starts, screen)``: `starts` holds the best parent (smallest objective) padded
+    Returns ``(starts, screen)``, unconstrained parameter vectors of the whole child model
+    (:meth:`Model.to_unconstrained`): `starts` holds the best parent (smallest objective) padded
     with a negligible copy of the added process, so that the child does no worse than any
     parent; `screen` holds the best parents padded with the added process started on the
     positive part of the residual WV at several time scales.
     """
     child = child.bind(freq)
     ranked = sorted(parents, key=lambda f: (f.objective, f.model.name))
-    starts: list[dict] = []
-    screen: list[dict] = []
+    starts: list[np.ndarray] = []
+    screen: list[np.ndarray] = []
     for i, parent in enumerate(ranked[:_PARENT_STARTS]):
         slots = _slots(child, parent.model)
         if slots is None:
@@ -390,12 +389,12 @@ def _child_starts(child: Model, parents: list[GMWMResult], nu_hat: np.ndarray, f
         fresh = child.processes[new]
         for guess in _guesses(fresh, resid, freq):
             procs[new] = guess
-            screen.append(Model(tuple(procs), freq).to_spec())
+            screen.append(Model(tuple(procs), freq).to_unconstrained())
             if i == 0 and not starts:
                 small = _negligible(guess, nu_hat, freq)
                 if small is not None:
                     procs[new] = small
-                    starts.append(Model(tuple(procs), freq).to_spec())
+                    starts.append(Model(tuple(procs), freq).to_unconstrained())
     return tuple(starts), tuple(screen)
 
 
