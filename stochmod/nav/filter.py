@@ -59,7 +59,7 @@ from stochmod.nav.measurements import (
 )
 from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
 from stochmod.nav.alignment import InitialState, align_from_gnss
-from stochmod.nav.strapdown import Mechanisation, NavState, check_imu, imu_increments
+from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
