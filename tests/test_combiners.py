@@ -280,6 +280,8 @@ def test_garch_workers_give_the_serial_result() -> None:
     x, _ = redundant_gyros(5.0, length=2000)
     triads = np.stack([redundant_gyros(a, length=2000, seed=20 + a)[0] for a in (0, 5, 10)], axis=-1)
     serial = stochmod.combine(triads, "garch")
+    # some series grow past (1, 1): the pool's level-by-level growth is exercised
+    assert any(sum(s.garch.order) > 2 for s in serial.sensors)
     parallel = stochmod.combine(triads, "garch", workers=2)
     for field in ("signal", "weights", "variance", "sensor_variance"):
         np.testing.assert_array_equal(getattr(parallel, field), getattr(serial, field))
@@ -287,5 +289,7 @@ def test_garch_workers_give_the_serial_result() -> None:
     for a, b in zip(parallel.sensors, serial.sensors):
         assert (a.sensor, a.axis, a.arma.order, a.garch.order) == (b.sensor, b.axis, b.arma.order, b.garch.order)
         np.testing.assert_array_equal(a.garch.params, b.garch.params)
+    fixed = [stochmod.combine(triads, "garch", workers=w, **FAST_GARCH) for w in (None, 2)]
+    np.testing.assert_array_equal(fixed[0].signal, fixed[1].signal)
     with pytest.raises(InputError, match="workers"):
         stochmod.combine(x, "garch", workers=0, **FAST_GARCH)
