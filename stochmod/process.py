@@ -544,8 +544,13 @@ def _scalar_layout(cls: type[Process]) -> _ScalarLayout | None:
     :meth:`Process.from_unconstrained` may build its instances directly: every parameter a
     scalar of a built-in scalar domain (:func:`stochmod.params.scalar_contains`), and the
     class keeps the base class's :meth:`~Process.parameters`, :meth:`~Process.from_vector`
-    and ``__attrs_post_init__`` (a family that checks more, like AR, is rebuilt in full)."""
+    and ``__attrs_post_init__``, and gives its parameter fields no attrs validator or
+    converter (a family that checks more, like AR, is rebuilt in full)."""
     if any(_overrides(cls, name) for name in ("parameters", "from_vector", "__attrs_post_init__")):
+        return None
+    fields = {f.name: f for f in attrs.fields(cls)}
+    if any(fields[spec.name].validator is not None or fields[spec.name].converter is not None
+           for spec in cls.parameter_specs):
         return None
     layout = []
     for spec in cls.parameter_specs:

@@ -229,3 +229,25 @@ def test_fast_from_unconstrained_is_the_general_rebuild_bit_for_bit() -> None:
                     assert fast == slow and hash(fast) == hash(slow) and repr(fast) == repr(slow)
                     for s in p.parameters():
                         assert type(getattr(fast, s.name)) is float
+
+
+def test_a_family_that_validates_its_fields_is_rebuilt_in_full() -> None:
+    """A third-party family whose parameter field has an attrs validator does not take the
+    direct path of from_unconstrained: its validator runs on every rebuilt value."""
+    import attrs
+
+    from stochmod import model_from_spec
+    from stochmod.process import _scalar_layout
+
+    wn = type(model_from_spec("WN(sigma2=1.0)", 100.0).processes[0])
+    calls = []
+
+    @attrs.frozen
+    class CheckedWN(wn):
+        family = "CHECKED_WN"
+        sigma2: float | None = attrs.field(default=None,
+                                           validator=lambda inst, att, v: calls.append(v))
+
+    assert _scalar_layout(wn) is not None and _scalar_layout(CheckedWN) is None
+    rebuilt = CheckedWN(sigma2=1.0).from_unconstrained(np.array([0.5]))
+    assert calls[-1] == rebuilt.sigma2 > 0
