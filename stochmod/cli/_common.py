@@ -78,11 +78,10 @@ def gap_free_segments(rec: Recording) -> list[Recording]:
     return kept
 
 
-def longest_segment(rec: Recording) -> Recording:
-    """The longest gap-free piece of `rec`: the data of the subcommands that do not pool
-    segments (``allan``, ``psd``, ``ar``, ``denoise``) and of calibrate's Allan reading and
-    validation bands."""
-    pieces = rec.segments()
+def longest_segment(pieces: list[Recording]) -> Recording:
+    """The longest of the gap-free `pieces` (``Recording.segments``): the data of the
+    subcommands that do not pool segments (``allan``, ``psd``, ``ar``, ``denoise``) and of
+    calibrate's Allan reading and validation bands."""
     return max(pieces, key=lambda r: r.data.shape[0])
 
 
@@ -115,9 +114,10 @@ def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recordi
     subcommands that pool the segments use :func:`load_segments`.
     """
     rec, freq = _read(args, to_si)
-    longest = longest_segment(rec)
+    pieces = rec.segments()
+    longest = longest_segment(pieces)
     if longest is not rec:
-        print(f"{rec.path}: {len(rec.segments())} gap-free segments; using the longest "
+        print(f"{rec.path}: {len(pieces)} gap-free segments; using the longest "
               f"({longest.data.shape[0]} of {rec.data.shape[0]} samples, from t = "
               f"{longest.time[0]:.6g} s; calibrate, select, fit and wv pool all segments)",
               file=sys.stderr)
@@ -134,11 +134,10 @@ def load_segments(args: argparse.Namespace, path: str | None = None
     return gap_free_segments(rec), freq
 
 
-def column_replicates(segments: list[Recording], k: int, scale: float = 1.0
-                      ) -> np.ndarray | list[np.ndarray]:
-    """Column `k` of the segments times `scale`: one signal, or the list of the segments'
-    signals (replicates for :func:`stochmod.gmwm` / :func:`stochmod.select`)."""
-    xs = [s.data[:, k] * scale for s in segments]
+def column_replicates(segments: list[Recording], k: int) -> np.ndarray | list[np.ndarray]:
+    """Column `k` of the segments: one signal, or the list of the segments' signals
+    (replicates for :func:`stochmod.gmwm` / :func:`stochmod.select`)."""
+    xs = [s.data[:, k] for s in segments]
     return xs[0] if len(xs) == 1 else xs
 
 

@@ -15,7 +15,8 @@ from typing import Any
 import attrs
 
 from stochmod.cli import _calibrate_outputs as extras
-from stochmod.cli._common import add_input_arguments, load_segments, print_json, to_jsonable
+from stochmod.cli._common import (add_input_arguments, load_segments, longest_segment,
+                                  print_json, to_jsonable)
 from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
 from stochmod.errors import EstimationError, InputError
 from stochmod.fleet import SerialExecutor, run_fleet
@@ -294,11 +295,12 @@ def _calibrate(args: argparse.Namespace, segments: list[Recording], freq: float,
     with `pool` running the selection's fits and the figures."""
     # with --split-gaps the fits pool all segments; the Allan reading and the validation bands
     # of the datasheet and report use the longest one
-    rec = max(segments, key=lambda r: r.data.shape[0])
-    data = rec.data * args.scale
+    segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]  # once
+    rec = longest_segment(segments)
+    data = rec.data
     sensor_units = extras.column_units(list(rec.columns), args,
                                        required=bool(args.triad or args.export or args.report))
-    results = select_columns(segments, freq, selection_options(args), args.scale, pool)
+    results = select_columns(segments, freq, selection_options(args), pool)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)

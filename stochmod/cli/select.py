@@ -76,14 +76,14 @@ def _max_counts(items: list[str]) -> dict[str, int]:
 
 
 def select_columns(segments: list[Recording], freq: float, options: dict[str, Any],
-                   scale: float = 1.0, executor: Any = None) -> list[SelectionResult]:
+                   executor: Any = None) -> list[SelectionResult]:
     """One selection per column of the recording's gap-free `segments` (their pooled wavelet
-    variance when there are several: ``--split-gaps``), data multiplied by `scale`."""
+    variance when there are several: ``--split-gaps``)."""
     columns = list(segments[0].columns)
     if len(segments) == 1:
-        return select(segments[0].data * scale, freq, names=columns, executor=executor, **options)
-    return [select(column_replicates(segments, k, scale), freq, names=[c], executor=executor,
-                   **options) for k, c in enumerate(columns)]
+        return select(segments[0].data, freq, names=columns, executor=executor, **options)
+    return [select(column_replicates(segments, k), freq, names=[c], executor=executor, **options)
+            for k, c in enumerate(columns)]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
