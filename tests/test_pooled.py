@@ -69,6 +69,9 @@ def test_select_accepts_replicates() -> None:
     res = stochmod.select(xs, FREQ, candidates=["WN", "GM+WN", "2*GM+WN"], executor=None)
     assert res.best.model.name == "GM+WN"
     assert res.empirical.n == 3 * 2**15
+    from stochmod.fit.pooled import pooled_wv
+
+    assert all(f.pooled.test == pooled_wv(xs, FREQ).test for f in res.fits.values())
 
 
 def test_synthetic_wv_predicted_from_members_models() -> None:

@@ -217,8 +217,6 @@ def _replicates(args: argparse.Namespace) -> tuple[list[list[Recording]], float]
 
 def _run_pooled(args: argparse.Namespace) -> int:
     """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
-    from stochmod.fit.pooled import pooled_wv
-
     files, freq = _replicates(args)
     segments = [s for segs in files for s in segs]
     sizes = [sum(int(s.data.shape[0]) for s in segs) for segs in files]
@@ -230,7 +228,7 @@ def _run_pooled(args: argparse.Namespace) -> int:
     for k, column in enumerate(segments[0].columns):
         xs = [seg.data[:, k] * args.scale for seg in segments]
         results.append(select(xs, freq, names=[column], **options))
-        test = pooled_wv(xs, freq, options.get("levels")).test
+        test = results[-1].best.pooled.test  # the selection's pooling of the replicates
         tests[column] = None if test is None else attrs.asdict(test)
     report = calibration_report(results, segments[0], freq, dt, args.scale)
     report["n"] = sum(sizes)

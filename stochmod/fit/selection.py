@@ -662,6 +662,7 @@ def select(
         levels = check_positive_int(levels, name="levels", minimum=1)
     options = {"robust": True, "efficiency": check_efficiency(efficiency)} if robust else {}
     prepared: list[_Column] | None = None
+    pooled = None
     if is_replicates(x):  # replicates of one sensor model: one selection on their pooled WV
         if freq is None:
             raise InputError("freq (Hz) is required when x is a list of signals")
@@ -713,6 +714,8 @@ def select(
                 shared[k] = attrs.evolve(shared[k], covariance=future.result())
                 fits[k] = {n: f.with_data_covariance(shared[k].covariance) for n, f in fits[k].items()}
 
+    if pooled is not None:  # every fit of the replicates carries their pooling and its test
+        fits = [{n: attrs.evolve(f, pooled=pooled) for n, f in fits[0].items()}]
     results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
                for k in range(len(cols))]
     return results[0] if single else results
