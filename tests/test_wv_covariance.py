@@ -157,3 +157,31 @@ def test_default_levels_and_more_than_the_data_allow():
     assert wv_covariance(x).shape == (8, 8)  # floor(log2 1000) - 1
     with pytest.raises(InputError, match="levels=10"):
         wv_covariance(x, 10)
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_threads_give_the_serial_digits_and_the_direct_sum(workers):
+    """The threaded pipeline (transforms on a pool, Gram in fixed parts) changes no digit, with
+    more levels than buffers so that every buffer is reused, and clipping on."""
+    x = np.random.default_rng(11).standard_t(3, size=1500)
+    serial = wv_covariance(x, 7, workers=1)
+    assert np.array_equal(wv_covariance(x, 7, workers=workers), serial)
+    assert serial == pytest.approx(direct_eq17(x, 7), rel=2e-5)
+    bounds = 2.0 * np.sqrt(wvar(x, 1.0, levels=7).wv)
+    assert np.array_equal(wv_covariance(x, 7, clip=bounds, workers=workers),
+                          wv_covariance(x, 7, clip=bounds, workers=1))
+
+
+def test_threads_default_from_the_environment(monkeypatch):
+    from stochmod.signal.wv_covariance import THREADS_VARIABLE, default_workers
+
+    monkeypatch.setenv(THREADS_VARIABLE, "1")
+    assert default_workers() == 1
+    monkeypatch.setenv(THREADS_VARIABLE, "3")
+    assert default_workers() == 3
+    for bad in ("0", "two", "-1"):
+        monkeypatch.setenv(THREADS_VARIABLE, bad)
+        with pytest.raises(InputError, match=THREADS_VARIABLE):
+            wv_covariance(np.arange(64.0), 2)
+    with pytest.raises(InputError, match="workers"):
+        wv_covariance(np.arange(64.0), 2, workers=0)

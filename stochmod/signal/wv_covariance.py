@@ -12,71 +12,125 @@ buffer, so every level starts at index 0.
 
 from __future__ import annotations
 
+import collections
+import concurrent.futures
+import os
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import fft
 
-from stochmod._validation import as_signal
+from stochmod._validation import as_signal, check_positive_int
 from stochmod.errors import InputError
 from stochmod.signal.modwt import check_level, pyramid, default_levels, modwt_filters
 
-__all__ = ["wv_covariance"]
+__all__ = ["THREADS_VARIABLE", "default_workers", "wv_covariance"]
 
-_FFT_BATCH = 2  # levels transformed together, on as many threads
+#: Environment variable that sets the default number of threads of :func:`wv_covariance`.
+THREADS_VARIABLE = "STOCHMOD_FFT_THREADS"
 _GEMM_SIZE = 1 << 18  # J * J * block at most: OpenBLAS runs such products on one thread
 # (threaded BLAS calls stall for seconds when the other cores are busy; see modwt._DOT)
+_GRAM_PARTS = 2  # frequency ranges of the Gram matrix, summed in a fixed order
+
+
+def default_workers() -> int:
+    """Threads :func:`wv_covariance` uses when not told: ``$STOCHMOD_FFT_THREADS`` if set (a
+    positive integer; set it to 1 in each process of a pool that already keeps every core
+    busy), otherwise two, or one on a single-core machine."""
+    value = os.environ.get(THREADS_VARIABLE, "")
+    if value == "":
+        return min(2, os.cpu_count() or 1)
+    try:
+        workers = int(value)
+    except ValueError:
+        workers = 0
+    if workers < 1:
+        raise InputError(f"${THREADS_VARIABLE} must be a positive integer, got {value!r}")
+    return workers
+
+
+def _level_power(buf: np.ndarray, out: np.ndarray) -> None:
+    """``out = |rfft(buf)|^2``: the float32 half-spectrum power of one zero-padded series."""
+    spec = fft.rfft(buf).view(np.float32)  # (re, im) pairs
+    np.square(spec, out=spec)
+    np.add(spec[0::2], spec[1::2], out=out)
 
 
 def _power_spectra(
-    x: np.ndarray, levels: int, wavelet: str, nfft: int, clip: np.ndarray | None = None
+    x: np.ndarray, levels: int, wavelet: str, nfft: int, clip: np.ndarray | None = None,
+    pool: concurrent.futures.Executor | None = None, workers: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scaled half-spectrum powers ``|X_j(f)|^2 / scale_j`` of every level's interior W_j.
 
     Returns ``(powers, scale, sizes)``: float32 rows of ``nfft // 2 + 1`` frequencies, the
     float64 factors ``scale_j = mean(W_j^2)`` (unit^2) that undo the normalisation, and M_j.
     Each series is divided by its RMS before the single-precision FFT, so that neither
-    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. The levels
-    are transformed ``_FFT_BATCH`` at a time, one thread each (independent transforms: the
-    only step of the computation that two cores share well). With `clip`, level j's
-    coefficients are first clipped to ``+-clip[j-1]``.
+    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. With a
+    thread `pool` of `workers` threads, each level's transform runs on the pool while this
+    thread computes the next levels (one one-dimensional transform per task: pocketfft's
+    batched transforms of such long rows are slower than the rows one by one). With `clip`,
+    level j's coefficients are first clipped to ``+-clip[j-1]``.
     """
     n = x.size
     powers = np.empty((levels, nfft // 2 + 1), dtype=np.float32)
     scale = np.zeros(levels)
     sizes = np.empty(levels, dtype=np.int64)
     coef = np.empty(n)
-    batch = min(_FFT_BATCH, levels)
-    buf = np.zeros((batch, nfft), dtype=np.float32)
-    filled = np.full(batch, n)  # length of the series last written to each row
+    bufs = [np.zeros(nfft, dtype=np.float32) for _ in range(workers + 1 if pool else 1)]
+    filled = [n] * len(bufs)  # length of the series last written to each buffer
+    pending: collections.deque[concurrent.futures.Future[None]] = collections.deque()
     for j, sumsq, m in pyramid(x, levels, wavelet, coef):
         if clip is not None:
             w = np.clip(coef[:m], -clip[j - 1], clip[j - 1], out=coef[:m])
             sumsq = float(np.dot(w, w))
         ms = sumsq / m
-        row = (j - 1) % batch
-        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[row, :m])
-        buf[row, m : filled[row]] = 0.0  # the rest of a longer, earlier series
-        filled[row] = m
+        k = (j - 1) % len(bufs)
+        if len(pending) == len(bufs):
+            pending.popleft().result()  # the task that read bufs[k]
+        buf = bufs[k]
+        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
+        buf[m : filled[k]] = 0.0  # the rest of a longer, earlier series
+        filled[k] = m
         scale[j - 1], sizes[j - 1] = ms, m
-        if row == batch - 1 or j == levels:
-            spec = fft.rfft(buf[: row + 1], workers=row + 1).view(np.float32)  # (re, im)
-            np.square(spec, out=spec)
-            np.add(spec[:, 0::2], spec[:, 1::2], out=powers[j - 1 - row : j])
+        if pool is None:
+            _level_power(buf, powers[j - 1])
+        else:
+            pending.append(pool.submit(_level_power, buf, powers[j - 1]))
+    for task in pending:
+        task.result()
     return powers, scale, sizes
 
 
-def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
-    """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
-
-    The float32 rows are promoted to float64 block by block (blocks small enough for one
-    BLAS thread), so the products and their sums are in double precision.
-    """
-    J, K = powers.shape
+def _gram_part(powers: np.ndarray, start: int, stop: int) -> np.ndarray:
+    """``sum_f P_a(f) P_b(f)`` over half-spectrum frequencies ``start <= f < stop``, in double
+    precision: the float32 rows are promoted block by block (blocks small enough for one BLAS
+    thread)."""
+    J = powers.shape[0]
     width = max(64, _GEMM_SIZE // (J * J))
     gram = np.zeros((J, J))
-    for s in range(0, K, width):
-        block = powers[:, s : s + width].astype(np.float64)
+    for s in range(start, stop, width):
+        block = powers[:, s : min(s + width, stop)].astype(np.float64)
         gram += block @ block.T
+    return gram
+
+
+def _half_spectrum_gram(powers: np.ndarray, nfft: int,
+                        pool: concurrent.futures.Executor | None = None) -> np.ndarray:
+    """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
+
+    The half spectrum is cut into ``_GRAM_PARTS`` ranges whose sums are added in a fixed order,
+    so the result does not depend on whether the parts run on the thread `pool`.
+    """
+    K = powers.shape[1]
+    edges = np.linspace(0, K, _GRAM_PARTS + 1).astype(int)
+    spans = list(zip(edges[:-1], edges[1:]))
+    if pool is None:
+        parts = [_gram_part(powers, a, b) for a, b in spans]
+    else:
+        parts = list(pool.map(lambda span: _gram_part(powers, *span), spans))
+    gram = parts[0]
+    for part in parts[1:]:
+        gram += part
     gram *= 2.0  # the conjugate half
     ends = powers[:, [0, -1]].astype(np.float64) if nfft % 2 == 0 else powers[:, :1].astype(
         np.float64
@@ -86,7 +140,7 @@ def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
 
 
 def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar", *,
-                  clip: ArrayLike | None = None) -> np.ndarray:
+                  clip: ArrayLike | None = None, workers: int | None = None) -> np.ndarray:
     """Covariance matrix of the empirical wavelet variances at levels 1..J, unit^4.
 
     ``Cov(v_m, v_l) = (1 / M_ml) sum_tau c_ml(tau)^2`` with ``c_ml(tau) = (1/M_ml) sum_k
@@ -105,6 +159,9 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
         Per-level bounds (unit u): level j's coefficients are clipped to ``+-clip[j-1]``
         first, so that a few outliers do not dominate the sums (the robust wavelet variance
         uses ``c sqrt(nu_j)``).
+    workers : int, optional
+        Threads for the transforms and the Gram matrix (default :func:`default_workers`). The
+        result is the same, bit for bit, for every number of threads.
 
     Returns
     -------
@@ -114,15 +171,16 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     Raises
     ------
     InputError
-        Bad signal, bad `levels` (more than the data allow), unknown wavelet.
+        Bad signal, bad `levels` (more than the data allow), unknown wavelet, `workers` not a
+        positive integer.
 
     Notes
     -----
     The transforms are in single precision (relative error ~1e-6, far below the estimator's
     own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
     time and memory; the products and sums are in double precision. Memory: the J float32
-    half spectra, about 4 J N bytes, plus two float32 FFT buffers (levels are transformed in
-    pairs, on two threads) and two float64 copies of `x`.
+    half spectra, about 4 J N bytes, plus ``workers + 1`` float32 FFT buffers of 8 N bytes
+    and two float64 copies of `x`.
     """
     x = as_signal(x, name="x", min_length=2)
     modwt_filters(wavelet)
@@ -134,8 +192,14 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
         bounds = np.asarray(clip, dtype=np.float64)
         if bounds.shape != (J,) or not np.all(bounds > 0):
             raise InputError(f"clip must hold {J} positive bounds (one per level), got {bounds!r}")
-    powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds)
-    gram = _half_spectrum_gram(powers, nfft)
+    workers = default_workers() if workers is None else check_positive_int(workers, name="workers")
+    if workers == 1:
+        powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds)
+        gram = _half_spectrum_gram(powers, nfft)
+    else:
+        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
+            powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds, pool, workers)
+            gram = _half_spectrum_gram(powers, nfft, pool)
     M = np.minimum.outer(sizes, sizes).astype(np.float64)
     V = gram * np.outer(scale, scale) / (nfft * M**3)
     upper = np.triu_indices(J, 1)
