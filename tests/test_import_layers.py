@@ -29,7 +29,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
                 "stochmod.coefficients", "stochmod.timing",
                 # the wavelet filters (imports only the bottom): the contract's theory, the
                 # generic WV fallbacks of Process, needs their squared gains
-                "stochmod.signal.modwt", "stochmod.signal.haar_jit")),
+                "stochmod.signal.modwt", "stochmod.signal.haar_jit",
+                "stochmod.signal.spectrum_jit")),
     # the contract and the composer; units (conversions) and io (the Recording container and
     # the readers' dispatch) sit with them, so that every estimator may take a Recording
     ("contract", ("stochmod.hookspecs", "stochmod.registry", "stochmod.process", "stochmod.model",

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from stochmod.errors import InputError
+from stochmod.signal import haar_jit
 from stochmod.signal.modwt import filter_width, modwt_coefficients
 from stochmod.signal.wavelet_variance import wvar
 from stochmod.signal.wv_covariance import wv_covariance
@@ -185,3 +186,13 @@ def test_threads_default_from_the_environment(monkeypatch):
             wv_covariance(np.arange(64.0), 2)
     with pytest.raises(InputError, match="workers"):
         wv_covariance(np.arange(64.0), 2, workers=0)
+
+
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.skipif(
+    haar_jit.numba is None, reason="numba (the 'fast' extra) is not installed"))])
+def test_both_power_spectrum_paths_give_the_direct_sum(monkeypatch, compiled):
+    """scipy's real transform and the compiled split of a complex one
+    (:mod:`stochmod.signal.spectrum_jit`), each against the direct double-precision sum."""
+    monkeypatch.setattr(haar_jit, "AVAILABLE", compiled)
+    x = np.random.default_rng(5).normal(size=913)
+    assert wv_covariance(x, 6) == pytest.approx(direct_eq17(x, 6), rel=2e-5)

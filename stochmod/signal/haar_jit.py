@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "haar_sweep", "haar_level_power_sums"]
+__all__ = ["AVAILABLE", "compiled", "haar_sweep", "haar_level_power_sums"]
 
 _BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
 _GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
@@ -49,6 +49,11 @@ def _jit(fn: Any) -> Any:
         return numba.njit(cache=True, nogil=True, fastmath={"reassoc"})(fn)
     except RuntimeError:  # pragma: no cover - no writable cache location (read-only install)
         return numba.njit(cache=False, nogil=True, fastmath={"reassoc"})(fn)
+
+
+#: The decorator of stochmod's compiled loops (also :mod:`stochmod.signal.spectrum_jit`'s):
+#: numba's ``njit`` without the GIL, cached on disk; the plain function without numba.
+compiled = _jit
 
 
 @_jit
