@@ -53,6 +53,7 @@ __all__ = [
     "haar_wv_geometric_dlog",
     "haar_wv_geometric_parts",
     "haar_wv_positive",
+    "haar_wv_positive_rows",
     "log1p_complex",
 ]
 
@@ -308,4 +309,62 @@ def haar_wv_positive(u: float, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     w = (2.0 * m * smi + _g(x)) / (8.0 * m * m * sh * sh)
     a = -np.expm1(-x)
     dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / math.tanh(0.5 * u)
+    return w, dw
+
+
+def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`haar_wv_positive` for many ``u`` at once: row k of each result is, bit for bit,
+    ``haar_wv_positive(u[k], m)`` (an optimizer's model with several Gauss-Markov terms, or a
+    screen of many candidate points, in one call).
+
+    The elementwise steps run on the whole (K, J) grid; the two power series, whose matrix
+    products round differently with the number of rows, are summed row by row with the same
+    shapes as the one-``u`` function, so the digits do not depend on K.
+
+    Parameters
+    ----------
+    u : ndarray of float, shape (K,)
+        ``-log z > 0`` per row (``beta / freq`` for Gauss-Markov processes).
+    m : ndarray of float, shape (J,)
+        Samples per half Haar filter (``2^(j-1)``).
+
+    Returns
+    -------
+    W, dW_du : ndarray, shape (K, J)
+        ``W_m(e^{-u})`` and ``dW/du`` (dimensionless).
+    """
+    u = np.asarray(u, dtype=np.float64).reshape(-1)
+    m = np.asarray(m, dtype=np.float64).reshape(-1)
+    if not np.all((u > 0) & np.isfinite(u)):
+        bad = u[~((u > 0) & np.isfinite(u))][0]
+        raise InputError(f"u must be positive finite numbers, got {bad!r}")
+    w = np.empty((u.size, m.size))
+    dw = np.empty((u.size, m.size))
+    far = u > -_SMALL_Z_LOG  # z < 1e-3: the polynomial path of the one-u function
+    for k in np.flatnonzero(far):
+        w[k], dw[k] = haar_wv_positive(float(u[k]), m)
+    near = np.flatnonzero(~far)
+    if not near.size:
+        return w, dw
+    un = u[near]
+    x = un[:, None] * m
+    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value
+    smi = np.sinh(un) - un
+    for i in np.flatnonzero(un < 1.0):
+        us = un[i : i + 1]
+        smi[i] = (us**3 * _power_series(_S_COEFS, us * us))[0]
+    # g(x): the direct form, then the series where x < 1, row by row as _g does
+    e = np.exp(-x)
+    g = 2.0 * x - 3.0 + 4.0 * e - e * e
+    small = x < 1.0
+    for i in np.flatnonzero(small.any(axis=1)):
+        xs = x[i][small[i]]
+        g[i, small[i]] = xs**3 * _power_series(_G_COEFS, xs)
+    half = [0.5 * float(v) for v in un]
+    sh = np.array([math.sinh(h) for h in half])[:, None]
+    th = np.array([math.tanh(h) for h in half])[:, None]
+    wn = (2.0 * m * smi[:, None] + g) / (8.0 * m * m * sh * sh)
+    a = -np.expm1(-x)
+    w[near] = wn
+    dw[near] = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - wn / th
     return w, dw
