@@ -335,17 +335,41 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
     """
     u = np.asarray(u, dtype=np.float64).reshape(-1)
     m = np.asarray(m, dtype=np.float64).reshape(-1)
-    if not np.all((u > 0) & np.isfinite(u)):
-        bad = u[~((u > 0) & np.isfinite(u))][0]
-        raise InputError(f"u must be positive finite numbers, got {bad!r}")
-    w = np.empty((u.size, m.size))
-    dw = np.empty((u.size, m.size))
-    far = u > -_SMALL_Z_LOG  # z < 1e-3: the polynomial path of the one-u function
-    for k in np.flatnonzero(far):
-        w[k], dw[k] = haar_wv_positive(float(u[k]), m)
-    near = np.flatnonzero(~far)
-    if not near.size:
+    us = u.tolist()
+    for v in us:
+        if not (v > 0 and math.isfinite(v)):
+            raise InputError(f"u must be positive finite numbers, got {v!r}")
+    if any(v > -_SMALL_Z_LOG for v in us):  # z < 1e-3: the polynomial path, row by row
+        w = np.empty((u.size, m.size))
+        dw = np.empty((u.size, m.size))
+        far = [k for k, v in enumerate(us) if v > -_SMALL_Z_LOG]
+        for k in far:
+            w[k], dw[k] = haar_wv_positive(us[k], m)
+        near = [k for k, v in enumerate(us) if not v > -_SMALL_Z_LOG]
+        if near:
+            w[near], dw[near] = haar_wv_positive_rows(u[near], m)
         return w, dw
+    x = u[:, None] * m
+    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value
+    smi = np.sinh(u) - u
+    for i, v in enumerate(us):
+        if v < 1.0:
+            ui = u[i : i + 1]
+            smi[i] = (ui**3 * _power_series(_S_COEFS, ui * ui))[0]
+    # g(x): the direct form, then the series where x < 1, row by row as _g does
+    e = np.exp(-x)
+    g = 2.0 * x - 3.0 + 4.0 * e - e * e
+    small = x < 1.0
+    for i, row in enumerate(small):
+        if row.any():
+            xs = x[i][row]
+            g[i, row] = xs**3 * _power_series(_G_COEFS, xs)
+    sh = np.array([math.sinh(0.5 * v) for v in us])[:, None]
+    th = np.array([math.tanh(0.5 * v) for v in us])[:, None]
+    w = (2.0 * m * smi[:, None] + g) / (8.0 * m * m * sh * sh)
+    a = -np.expm1(-x)
+    dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / th
+    return w, dw
     un = u[near]
     x = un[:, None] * m
     # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value

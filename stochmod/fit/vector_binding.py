@@ -82,6 +82,8 @@ class VectorBinding:
         for domain, cols in self._domains:
             v = domain.from_unconstrained(theta[:, cols])
             values[:, cols] = v
+            if domain.contains(v):  # every row: one check
+                continue
             for i, row in enumerate(v):
                 if valid[i] and not domain.contains(row):
                     valid[i] = False
