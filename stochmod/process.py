@@ -553,13 +553,23 @@ def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
 
 
+def _owner(cls: type, name: str) -> type:
+    """The class of `cls`'s MRO that defines attribute `name`."""
+    return next(c for c in cls.__mro__ if name in vars(c))
+
+
 def wv_rows_domains(cls: type[Process]) -> tuple[Domain, ...] | None:
     """The domains of `cls`'s parameters, in order, when the family overrides
-    :meth:`Process.haar_wv_rows` and its instances are nothing more than their scalar values
-    checked against those domains (the fast path of :meth:`Process.from_unconstrained`); None
-    otherwise. A binding may then evaluate the family's WV from parameter vectors alone,
+    :meth:`Process.haar_wv_rows` (in the class that defines its :meth:`~Process.wv` and
+    :meth:`~Process.wv_jacobian`, or below) and its instances are nothing more than their
+    scalar values checked against those domains (the fast path of
+    :meth:`Process.from_unconstrained`); None otherwise. A binding may then evaluate the family's WV from parameter vectors alone,
     with the same domain checks and the same numbers as through Process objects."""
     if not _overrides(cls, "haar_wv_rows"):
+        return None
+    # a subclass that changes wv or wv_jacobian without its own haar_wv_rows keeps Process objects
+    rows_owner = _owner(cls, "haar_wv_rows")
+    if not all(issubclass(rows_owner, _owner(cls, name)) for name in ("wv", "wv_jacobian")):
         return None
     layout = _scalar_layout(cls)
     return None if layout is None else tuple(domain for _, domain, _ in layout)

@@ -67,6 +67,12 @@ def test_only_plain_built_in_families_have_a_vector_form() -> None:
 
     assert wv_rows_domains(Plain) is None
 
+    class Scaled(reg["GM"]):  # changes the WV but inherits GM's vector form: not used
+        def wv(self, levels, freq, wavelet="haar"):
+            return 2.0 * super().wv(levels, freq, wavelet)
+
+    assert wv_rows_domains(Scaled) is None
+
 
 class _ProcessPath(Problem):
     """The Process-object binding (overriding phi makes Problem skip the vector binding)."""
