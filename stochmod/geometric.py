@@ -37,6 +37,7 @@ Gauss-Markov process gives ``u = beta / freq`` with no rounding of ``exp(-beta/f
 
 from __future__ import annotations
 
+import functools
 import math
 from fractions import Fraction
 
@@ -349,27 +350,38 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
         if near:
             w[near], dw[near] = haar_wv_positive_rows(u[near], m)
         return w, dw
+    m2, m8, inv2m, m4 = _m_constants(m.tobytes())
     x = u[:, None] * m
-    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value
+    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value (the cube
+    # and the product are elementwise: taken for every row at once)
     smi = np.sinh(u) - u
+    uu, u3 = u * u, u**3
     for i, v in enumerate(us):
         if v < 1.0:
-            ui = u[i : i + 1]
-            smi[i] = (ui**3 * _power_series(_S_COEFS, ui * ui))[0]
-    # g(x): the direct form, then the series where x < 1, row by row as _g does
+            smi[i] = float(u3[i]) * float(_power_series(_S_COEFS, uu[i : i + 1])[0])
+    # g(x): the direct form, then the series where x < 1 (row by row, as _g does for one u)
     e = np.exp(-x)
     g = 2.0 * x - 3.0 + 4.0 * e - e * e
     small = x < 1.0
-    for i, row in enumerate(small):
-        if row.any():
-            xs = x[i][row]
-            g[i, row] = xs**3 * _power_series(_G_COEFS, xs)
+    xs = x[small]  # row after row
+    if xs.size:
+        ends = np.cumsum(small.sum(axis=1)).tolist()
+        series = [_power_series(_G_COEFS, xs[a:b]) for a, b in zip([0, *ends[:-1]], ends) if b > a]
+        g[small] = xs**3 * np.concatenate(series)
     sh = np.array([math.sinh(0.5 * v) for v in us])[:, None]
     th = np.array([math.tanh(0.5 * v) for v in us])[:, None]
-    w = (2.0 * m * smi[:, None] + g) / (8.0 * m * m * sh * sh)
+    w = (m2 * smi[:, None] + g) / (m8 * sh * sh)
     a = -np.expm1(-x)
-    dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / th
+    dw = inv2m + a * a / (m4 * sh * sh) - w / th
     return w, dw
+
+
+@functools.lru_cache(maxsize=8)
+def _m_constants(m_bytes: bytes) -> tuple[np.ndarray, ...]:
+    """``2m``, ``8 m m``, ``1 / (2m)`` and ``4m``, computed as :func:`haar_wv_positive`
+    computes them (the same operations, so the same digits), once per set of half-widths."""
+    m = np.frombuffer(m_bytes, dtype=np.float64)
+    return 2.0 * m, 8.0 * m * m, 1.0 / (2.0 * m), 4.0 * m
     un = u[near]
     x = un[:, None] * m
     # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value

@@ -230,12 +230,9 @@ class GM(Process):
         shapes (K, J) in u^2 and (K, J, 2)."""
         values = np.asarray(values, dtype=np.float64).reshape(-1, 2)
         freq = check_freq(freq)
-        beta, sigma2 = values[:, 0], values[:, 1]
-        w, dw_du = haar_wv_positive_rows(beta / freq, _levels_m(levels))
-        jac = np.empty(w.shape + (2,))
-        jac[:, :, 0] = (sigma2 / freq)[:, None] * dw_du
-        jac[:, :, 1] = w
-        return sigma2[:, None] * w, jac
+        w, dw_du = haar_wv_positive_rows(values[:, 0] / freq, _levels_m(levels))
+        sigma2 = values[:, 1:2]
+        return sigma2 * w, np.stack((sigma2 / freq * dw_du, w), axis=-1)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD of the sampled process, u^2/Hz, at `f` Hz in (-freq/2, freq/2]."""

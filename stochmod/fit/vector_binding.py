@@ -77,11 +77,17 @@ class VectorBinding:
     def values(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Natural parameter values at rows of `theta` (P, n) and whether each row lies in
         its domains (the verdict of :meth:`~stochmod.process.Process.from_unconstrained`)."""
-        values = np.empty_like(theta)
         valid = np.ones(theta.shape[0], dtype=bool)
-        for domain, cols in self._domains:
-            v = domain.from_unconstrained(theta[:, cols])
-            values[:, cols] = v
+        if len(self._domains) == 1:  # one map for the whole vector (all positive, say)
+            values = self._domains[0][0].from_unconstrained(theta)
+            parts = [(self._domains[0][0], values)]
+        else:
+            values = np.empty_like(theta)
+            parts = []
+            for domain, cols in self._domains:
+                values[:, cols] = v = domain.from_unconstrained(theta[:, cols])
+                parts.append((domain, v))
+        for domain, v in parts:
             if domain.contains(v):  # every row: one check
                 continue
             for i, row in enumerate(v):
