@@ -111,3 +111,20 @@ def test_problem_with_the_vector_binding_is_the_process_path_bit_for_bit(spec: s
         assert np.isinf(got[3]) and np.array_equal(_bits(got), _bits(expected))
         with pytest.raises(DomainError):
             fast.phi(points[3])
+
+
+def test_select_takes_the_wv_here_and_its_v_is_data_covariance_bit_for_bit() -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stochmod.fit.selection import select
+    from stochmod.fit.weighting import data_covariance
+    from stochmod.signal.wavelet_variance import wvar
+
+    truth = stochmod.model_from_spec("GM(beta=10.0, sigma2=1.0) + WN(sigma2=1.0)", FREQ)
+    x = truth.simulate(3000, rng=4)
+    with ThreadPoolExecutor(2) as pool:
+        for levels in (None, 6):
+            res = select(x, FREQ, candidates=["WN", "GM+WN"], executor=pool, levels=levels)
+            emp = wvar(x, FREQ, levels=levels)
+            V = data_covariance(x, emp, emp.wv.size)
+            assert np.array_equal(_bits(res.wv_covariance), _bits(V))
