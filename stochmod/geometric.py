@@ -37,6 +37,7 @@ Gauss-Markov process gives ``u = beta / freq`` with no rounding of ``exp(-beta/f
 
 from __future__ import annotations
 
+import functools
 import math
 from fractions import Fraction
 
@@ -53,6 +54,7 @@ __all__ = [
     "haar_wv_geometric_dlog",
     "haar_wv_geometric_parts",
     "haar_wv_positive",
+    "haar_wv_positive_rows",
     "log1p_complex",
 ]
 
@@ -308,4 +310,97 @@ def haar_wv_positive(u: float, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     w = (2.0 * m * smi + _g(x)) / (8.0 * m * m * sh * sh)
     a = -np.expm1(-x)
     dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / math.tanh(0.5 * u)
+    return w, dw
+
+
+def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`haar_wv_positive` for many ``u`` at once: row k of each result is, bit for bit,
+    ``haar_wv_positive(u[k], m)`` (an optimizer's model with several Gauss-Markov terms, or a
+    screen of many candidate points, in one call).
+
+    The elementwise steps run on the whole (K, J) grid; the two power series, whose matrix
+    products round differently with the number of rows, are summed row by row with the same
+    shapes as the one-``u`` function, so the digits do not depend on K.
+
+    Parameters
+    ----------
+    u : ndarray of float, shape (K,)
+        ``-log z > 0`` per row (``beta / freq`` for Gauss-Markov processes).
+    m : ndarray of float, shape (J,)
+        Samples per half Haar filter (``2^(j-1)``).
+
+    Returns
+    -------
+    W, dW_du : ndarray, shape (K, J)
+        ``W_m(e^{-u})`` and ``dW/du`` (dimensionless).
+    """
+    u = np.asarray(u, dtype=np.float64).reshape(-1)
+    m = np.asarray(m, dtype=np.float64).reshape(-1)
+    us = u.tolist()
+    for v in us:
+        if not (v > 0 and math.isfinite(v)):
+            raise InputError(f"u must be positive finite numbers, got {v!r}")
+    if any(v > -_SMALL_Z_LOG for v in us):  # z < 1e-3: the polynomial path, row by row
+        w = np.empty((u.size, m.size))
+        dw = np.empty((u.size, m.size))
+        far = [k for k, v in enumerate(us) if v > -_SMALL_Z_LOG]
+        for k in far:
+            w[k], dw[k] = haar_wv_positive(us[k], m)
+        near = [k for k, v in enumerate(us) if not v > -_SMALL_Z_LOG]
+        if near:
+            w[near], dw[near] = haar_wv_positive_rows(u[near], m)
+        return w, dw
+    m2, m8, inv2m, m4 = _m_constants(m.tobytes())
+    x = u[:, None] * m
+    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value (the cube
+    # and the product are elementwise: taken for every row at once)
+    smi = np.sinh(u) - u
+    uu, u3 = u * u, u**3
+    for i, v in enumerate(us):
+        if v < 1.0:
+            smi[i] = float(u3[i]) * float(_power_series(_S_COEFS, uu[i : i + 1])[0])
+    # g(x): the direct form, then the series where x < 1 (row by row, as _g does for one u)
+    e = np.exp(-x)
+    g = 2.0 * x - 3.0 + 4.0 * e - e * e
+    small = x < 1.0
+    xs = x[small]  # row after row
+    if xs.size:
+        ends = np.cumsum(small.sum(axis=1)).tolist()
+        series = [_power_series(_G_COEFS, xs[a:b]) for a, b in zip([0, *ends[:-1]], ends) if b > a]
+        g[small] = xs**3 * np.concatenate(series)
+    sh = np.array([math.sinh(0.5 * v) for v in us])[:, None]
+    th = np.array([math.tanh(0.5 * v) for v in us])[:, None]
+    w = (m2 * smi[:, None] + g) / (m8 * sh * sh)
+    a = -np.expm1(-x)
+    dw = inv2m + a * a / (m4 * sh * sh) - w / th
+    return w, dw
+
+
+@functools.lru_cache(maxsize=8)
+def _m_constants(m_bytes: bytes) -> tuple[np.ndarray, ...]:
+    """``2m``, ``8 m m``, ``1 / (2m)`` and ``4m``, computed as :func:`haar_wv_positive`
+    computes them (the same operations, so the same digits), once per set of half-widths."""
+    m = np.frombuffer(m_bytes, dtype=np.float64)
+    return 2.0 * m, 8.0 * m * m, 1.0 / (2.0 * m), 4.0 * m
+    un = u[near]
+    x = un[:, None] * m
+    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value
+    smi = np.sinh(un) - un
+    for i in np.flatnonzero(un < 1.0):
+        us = un[i : i + 1]
+        smi[i] = (us**3 * _power_series(_S_COEFS, us * us))[0]
+    # g(x): the direct form, then the series where x < 1, row by row as _g does
+    e = np.exp(-x)
+    g = 2.0 * x - 3.0 + 4.0 * e - e * e
+    small = x < 1.0
+    for i in np.flatnonzero(small.any(axis=1)):
+        xs = x[i][small[i]]
+        g[i, small[i]] = xs**3 * _power_series(_G_COEFS, xs)
+    half = [0.5 * float(v) for v in un]
+    sh = np.array([math.sinh(h) for h in half])[:, None]
+    th = np.array([math.tanh(h) for h in half])[:, None]
+    wn = (2.0 * m * smi[:, None] + g) / (8.0 * m * m * sh * sh)
+    a = -np.expm1(-x)
+    w[near] = wn
+    dw[near] = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - wn / th
     return w, dw

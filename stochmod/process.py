@@ -34,7 +34,7 @@ from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps,
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
 __all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "declares_psd", "psd_of",
-           "has_theoretical_wv"]
+           "has_theoretical_wv", "wv_rows_domains"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -348,6 +348,44 @@ class Process(abc.ABC):
         return wv_from_psd(lambda f: psd_of(self, f, freq), levels, freq, wavelet=wavelet,
                            breakpoints=self.psd_breakpoints(freq))
 
+    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
+        """Haar :meth:`wv` and :meth:`wv_jacobian` at many parameter vectors of this family at
+        once (an optimizer's model holds several components of one family; a screen of
+        starting points holds many).
+
+        Parameters
+        ----------
+        values : array_like, shape (K, n_params)
+            Parameter vectors (:meth:`vector` order, natural units), each inside its domains.
+        levels : int
+            Number of levels J.
+        freq : float
+            Sampling frequency, Hz.
+
+        Returns
+        -------
+        wv : ndarray (K, J)
+            Row k: ``self.from_vector(values[k]).wv(levels, freq)``, u^2.
+        jacobian : ndarray (K, J, n_params)
+            Row k: ``self.from_vector(values[k]).wv_jacobian(levels, freq)``.
+
+        Notes
+        -----
+        This default builds each row's process. A family overrides it with a vectorised
+        closed form that gives the same numbers bit for bit (the built-ins WN, RW, GM, QN,
+        RR); the GMWM binding (:class:`stochmod.fit.engine.Problem`) then evaluates its model
+        without building Process objects (:func:`wv_rows_domains`).
+        """
+        values = np.asarray(values, dtype=np.float64).reshape(-1, self.n_params)
+        levels = check_positive_int(levels, name="levels")
+        wv = np.empty((values.shape[0], levels))
+        jac = np.empty((values.shape[0], levels, self.n_params))
+        for k, row in enumerate(values):
+            p = self.from_vector(row)
+            wv[k] = p.wv(levels, freq)
+            jac[k] = p.wv_jacobian(levels, freq)
+        return wv, jac
+
     def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
                                wavelet: str = "haar") -> np.ndarray | None:
         """Covariance (J x J, u^4) of this component's empirical WV that :meth:`psd` does not
@@ -513,6 +551,28 @@ class Process(abc.ABC):
 
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
+
+
+def _owner(cls: type, name: str) -> type:
+    """The class of `cls`'s MRO that defines attribute `name`."""
+    return next(c for c in cls.__mro__ if name in vars(c))
+
+
+def wv_rows_domains(cls: type[Process]) -> tuple[Domain, ...] | None:
+    """The domains of `cls`'s parameters, in order, when the family overrides
+    :meth:`Process.haar_wv_rows` (in the class that defines its :meth:`~Process.wv` and
+    :meth:`~Process.wv_jacobian`, or below) and its instances are nothing more than their
+    scalar values checked against those domains (the fast path of
+    :meth:`Process.from_unconstrained`); None otherwise. A binding may then evaluate the family's WV from parameter vectors alone,
+    with the same domain checks and the same numbers as through Process objects."""
+    if not _overrides(cls, "haar_wv_rows"):
+        return None
+    # a subclass that changes wv or wv_jacobian without its own haar_wv_rows keeps Process objects
+    rows_owner = _owner(cls, "haar_wv_rows")
+    if not all(issubclass(rows_owner, _owner(cls, name)) for name in ("wv", "wv_jacobian")):
+        return None
+    layout = _scalar_layout(cls)
+    return None if layout is None else tuple(domain for _, domain, _ in layout)
 
 
 def declares_psd(process: Process | type[Process]) -> bool:

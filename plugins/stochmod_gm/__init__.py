@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError
-from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X, haar_wv_positive
+from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X, haar_wv_positive, haar_wv_positive_rows
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -223,6 +223,16 @@ class GM(Process):
         freq = check_freq(freq)
         w, dw_du = _haar_wv(self.beta / freq, levels)
         return np.column_stack([self.sigma2 / freq * dw_du, w])
+
+    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(beta, sigma2)`` of `values` (K, 2),
+        bit for bit, in one call (:func:`stochmod.geometric.haar_wv_positive_rows`):
+        shapes (K, J) in u^2 and (K, J, 2)."""
+        values = np.asarray(values, dtype=np.float64).reshape(-1, 2)
+        freq = check_freq(freq)
+        w, dw_du = haar_wv_positive_rows(values[:, 0] / freq, _levels_m(levels))
+        sigma2 = values[:, 1:2]
+        return sigma2 * w, np.stack((sigma2 / freq * dw_du, w), axis=-1)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD of the sampled process, u^2/Hz, at `f` Hz in (-freq/2, freq/2]."""

@@ -123,6 +123,13 @@ class RR(Process):
         m = _half_widths(check_positive_int(levels, name="levels"))
         return (0.5 * self.omega * m * m)[:, None]
 
+    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
+        """Haar :meth:`wv` and :meth:`wv_jacobian` at rows ``(omega,)`` of `values` (K, 1), bit for bit."""
+        omega = np.asarray(values, dtype=np.float64).reshape(-1, 1)
+        check_freq(freq)
+        m = _half_widths(check_positive_int(levels, name="levels"))
+        return (omega * m * _first_moment("haar")) ** 2, (0.5 * omega * m * m)[:, :, None]
+
     def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
                                wavelet: str = "haar") -> np.ndarray:
         """``2 wv wv^T`` (u^4): one slope s per record, so the ramp's empirical WV is

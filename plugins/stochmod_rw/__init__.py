@@ -109,6 +109,13 @@ class RW(Process):
         check_freq(freq)
         return _haar_factor(check_positive_int(levels, name="levels"))[:, None]
 
+    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(sigma2,)`` of `values` (K, 1), bit for bit."""
+        values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
+        check_freq(freq)
+        factor = _haar_factor(check_positive_int(levels, name="levels"))
+        return values * factor, np.broadcast_to(factor[:, None], (values.shape[0], factor.size, 1)).copy()
+
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Generalised two-sided PSD ``sigma2 / (4 freq sin^2(pi f / freq))``, u^2/Hz (inf at 0)."""
         self.require_values()

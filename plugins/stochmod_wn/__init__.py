@@ -75,6 +75,14 @@ class WN(Process):
         """d wv / d sigma2 = 1 / 2^j."""
         return (1.0 / 2.0 ** np.arange(1, int(levels) + 1))[:, None]
 
+    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(sigma2,)`` of `values` (K, 1), bit for bit."""
+        values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
+        scale = 2.0 ** np.arange(1, int(levels) + 1)
+        jac = np.empty((values.shape[0], scale.size, 1))
+        jac[:, :, 0] = 1.0 / scale
+        return values / scale, jac
+
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Flat two-sided PSD ``sigma2 / freq`` (u^2/Hz)."""
         self.require_values()

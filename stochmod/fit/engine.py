@@ -31,6 +31,7 @@ import numpy as np
 from scipy import optimize
 
 from stochmod.errors import EstimationError, SpecError
+from stochmod.fit.vector_binding import VectorBinding
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
 
@@ -62,6 +63,13 @@ REFINE_TOLERANCE = (1e-12, 2000)
 _REMEMBERED = 4
 
 _FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError)
+#: The methods of :class:`Problem` that define its binding: a subclass that overrides one
+#: (indirect inference) is evaluated through them, never through the vector binding.
+_BINDING_METHODS = ("phi", "dphi", "residuals", "objective", "safe_objective")
+
+
+def _overrides(cls: type, name: str) -> bool:
+    return getattr(cls, name) is not getattr(Problem, name)
 
 
 def resolve_model(model: Model | Process | str | dict, freq: float) -> Model:
@@ -110,6 +118,12 @@ class Problem:
         # and the search re-evaluates the points its local searches returned
         self._models: dict[bytes, Model] = {}
         self._phis: dict[bytes, np.ndarray] = {}
+        self._jacobians: dict[bytes, np.ndarray] = {}
+        # the built-in families' WVs straight from parameter vectors (same digits); a subclass
+        # that changes the binding, or a family without a vector form, keeps Process objects
+        self._vector = None
+        if not any(_overrides(type(self), name) for name in _BINDING_METHODS):
+            self._vector = VectorBinding.of(template, self.levels)
 
     def _theta(self, x: np.ndarray) -> np.ndarray:
         theta = self.theta_full.copy()
@@ -139,13 +153,39 @@ class Problem:
         key = np.asarray(x, dtype=np.float64).tobytes()
         found = self._phis.get(key)
         if found is None:
-            found = self._remember(self._phis, key, self.model(x).wv(self.levels))
+            found = self._vector_point(x, key)
+            if found is None:
+                found = self.model(x).wv(self.levels)
+            found = self._remember(self._phis, key, found)
             found.flags.writeable = False
         return found
+
+    def _vector_point(self, x: np.ndarray, key: bytes) -> np.ndarray | None:
+        """The WV at `x` by the vector binding, its Jacobian remembered; None without one or
+        outside the domains (the Process path then raises as it always did)."""
+        if self._vector is None:
+            return None
+        values, valid = self._vector.values(self._theta(x)[None, :])
+        if not valid[0]:
+            return None
+        wv, jac = self._vector.evaluate(values)
+        self._remember(self._jacobians, key, jac[0])
+        return wv[0]
 
     def dphi(self, x: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`phi` on the free unconstrained scale, shape (J, n_free)."""
         theta = self._theta(x)
+        if self._vector is not None:
+            key = np.asarray(x, dtype=np.float64).tobytes()
+            found = self._jacobians.get(key)
+            if found is None and self._vector_point(x, key) is not None:
+                found = self._jacobians[key]
+            if found is not None:  # the vector binding's d wv / d vector, then the domains' maps
+                D = found.copy()
+                d = self._vector.derivatives(theta)
+                for s in self._slices:
+                    D[:, s] = D[:, s] @ np.diag(d[s])
+                return D[:, self.mask]
         m = self.model(x)
         D = m.wv_jacobian(self.levels)
         for p, s in zip(m.processes, self._slices):  # times the block-diagonal d vector / d theta
@@ -180,6 +220,30 @@ class Problem:
         except (ArithmeticError, ValueError):
             return np.inf
         return value if np.isfinite(value) else np.inf
+
+    def safe_objectives(self, points: np.ndarray) -> np.ndarray:
+        """:meth:`safe_objective` at each row of `points` (P, n_free): with the vector
+        binding, every point's WV comes from one call per family (the same digits)."""
+        points = np.asarray(points, dtype=np.float64)
+        if self._vector is None:
+            return np.array([self.safe_objective(x) for x in points])
+        theta = np.repeat(self.theta_full[None, :], points.shape[0], axis=0)
+        theta[:, self.mask] = points
+        values, valid = self._vector.values(theta)
+        try:
+            wv, _ = self._vector.evaluate(values[valid])
+        except (ArithmeticError, ValueError):
+            return np.array([self.safe_objective(x) for x in points])
+        out = np.empty(points.shape[0])
+        rows = iter(wv)
+        for i, x in enumerate(points):
+            if not valid[i]:
+                out[i] = self.safe_objective(x)
+                continue
+            r = self.L @ (self.nu_hat - next(rows))
+            value = float(r @ r)
+            out[i] = value if np.isfinite(value) else np.inf
+        return out
 
 
 @attrs.frozen
@@ -302,7 +366,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     if n_random:
         centre = candidates[0]
         cloud = centre + gen.normal(0.0, 3.0, size=(n_random, centre.size))
-        values = np.array([problem.safe_objective(x) for x in cloud])
+        values = problem.safe_objectives(cloud)
         best_cloud = np.argsort(values)[: max(2, n_starts // 2)]
         candidates.extend(cloud[i] for i in best_cloud if np.isfinite(values[i]))
 

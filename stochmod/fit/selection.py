@@ -691,9 +691,16 @@ def select(
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
-        shared = prepared or [f.result() for f in [
-            pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed, options))
-            for k in range(len(cols))]]
+        if prepared is not None:
+            shared = prepared
+        elif scheme.needs_signal:  # Omega needs eq. 17 of each column: in parallel
+            shared = [f.result() for f in [
+                pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed, options))
+                for k in range(len(cols))]]
+        else:  # the WV here (tens of ms): no signal sent to a worker and back, and workers
+            # forked afterwards inherit its compiled loops instead of loading them again
+            shared = [_prepare((data[:, k], freq, levels, scheme, seed, options))
+                      for k in range(len(cols))]
         J = shared[0].empirical.wv.size
         for name, node in graph.nodes.items():
             free = int(node["model"].free_mask().sum())

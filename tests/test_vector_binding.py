@@ -1,0 +1,130 @@
+"""The GMWM binding from parameter vectors (stochmod.fit.vector_binding, Process.haar_wv_rows,
+geometric.haar_wv_positive_rows): the same digits as the Process path, which it replaces
+inside the optimizer only for speed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import stochmod
+from stochmod.errors import DomainError, InputError
+from stochmod.fit.engine import Problem
+from stochmod.fit.vector_binding import VectorBinding
+from stochmod.geometric import haar_wv_positive, haar_wv_positive_rows
+from stochmod.process import Process, wv_rows_domains
+
+FREQ = 100.0
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
+
+
+def test_haar_wv_positive_rows_is_the_one_u_function_bit_for_bit() -> None:
+    rng = np.random.default_rng(11)
+    m = 2.0 ** np.arange(22)
+    # slow processes (series at most levels), fast ones, and z < 1e-3 (the polynomial path)
+    u = np.concatenate([10.0 ** rng.uniform(-12, 0, 40), rng.uniform(1, 6.9, 10), [7.0, 12.0, 700.0]])
+    rng.shuffle(u)
+    w, dw = haar_wv_positive_rows(u, m)
+    for k, uk in enumerate(u):
+        w1, dw1 = haar_wv_positive(float(uk), m)
+        assert np.array_equal(_bits(w[k]), _bits(w1)) and np.array_equal(_bits(dw[k]), _bits(dw1))
+
+
+@pytest.mark.parametrize("u", [0.0, -1.0, np.inf, np.nan])
+def test_haar_wv_positive_rows_refuses_a_non_positive_u(u: float) -> None:
+    with pytest.raises(InputError, match="u must be positive"):
+        haar_wv_positive_rows(np.array([0.1, u]), 2.0 ** np.arange(5))
+
+
+@pytest.mark.parametrize("family", ["GM", "WN", "RW", "QN", "RR", "AR(2)"])
+def test_haar_wv_rows_is_each_rows_process_bit_for_bit(family: str) -> None:
+    proto = stochmod.model_from_spec(family, FREQ).processes[0]
+    rng = np.random.default_rng(3)
+    if family == "AR(2)":  # the base class's default, row by row
+        values = np.array([[0.5, 0.3, 2.0], [1.2, -0.4, 1e-3]])
+    else:
+        values = 10.0 ** rng.uniform(-9, 2.5, (7, proto.n_params))
+    for levels in (1, 6, 21):
+        wv, jac = proto.haar_wv_rows(values, levels, FREQ)
+        assert wv.shape == (values.shape[0], levels) and jac.shape == (values.shape[0], levels, proto.n_params)
+        for k, row in enumerate(values):
+            p = proto.from_vector(row)
+            assert np.array_equal(_bits(wv[k]), _bits(p.wv(levels, FREQ)))
+            assert np.array_equal(_bits(jac[k]), _bits(p.wv_jacobian(levels, FREQ)))
+
+
+def test_only_plain_built_in_families_have_a_vector_form() -> None:
+    reg = {p.family: type(p) for p in stochmod.model_from_spec("GM+WN+RW+QN+RR+AR(1)", FREQ).processes}
+    assert all(wv_rows_domains(reg[f]) is not None for f in ("GM", "WN", "RW", "QN", "RR"))
+    assert wv_rows_domains(reg["AR"]) is None  # its construction checks stationarity
+    assert VectorBinding.of(stochmod.model_from_spec("2*GM+AR(1)", FREQ), 10) is None
+
+    class Plain(reg["WN"]):  # a subclass that does not declare the vector form keeps the default
+        haar_wv_rows = Process.haar_wv_rows
+
+    assert wv_rows_domains(Plain) is None
+
+    class Scaled(reg["GM"]):  # changes the WV but inherits GM's vector form: not used
+        def wv(self, levels, freq, wavelet="haar"):
+            return 2.0 * super().wv(levels, freq, wavelet)
+
+    assert wv_rows_domains(Scaled) is None
+
+
+class _ProcessPath(Problem):
+    """The Process-object binding (overriding phi makes Problem skip the vector binding)."""
+
+    def phi(self, x: np.ndarray) -> np.ndarray:
+        return super().phi(x)
+
+
+@pytest.mark.parametrize("spec", ["GM(beta=5.0, sigma2=1e-6) + GM(beta=0.01, sigma2=4e-6) + WN(sigma2=1e-4)",
+                                  "QN(Q2=1e-7) + WN(sigma2=3e-6) + RW(sigma2=1e-12) + RR(omega=1e-8)",
+                                  "GM(beta=0.5) + WN(sigma2=3e-6) + RW(sigma2=1e-10)"])
+def test_problem_with_the_vector_binding_is_the_process_path_bit_for_bit(spec: str) -> None:
+    truth = stochmod.model_from_spec(spec, FREQ)
+    filled = truth.start(np.ones(18)) if truth.is_free else truth
+    nu = stochmod.model_from_spec(spec.replace("GM(beta=0.5)", "GM(beta=0.5, sigma2=2e-6)"), FREQ).wv(18)
+    nu = nu * (1.0 + 0.05 * np.sin(np.arange(18)))
+    omega = np.diag(1.0 / nu**2)
+    mask = truth.free_mask() if truth.is_free else np.ones(truth.n_params, dtype=bool)
+    fast = Problem(filled, nu, omega, mask)
+    slow = _ProcessPath(filled, nu, omega, mask)
+    assert fast._vector is not None and slow._vector is None
+    rng = np.random.default_rng(2)
+    x0 = filled.to_unconstrained()[mask]
+    points = x0 + rng.normal(0.0, 3.0, size=(30, x0.size))
+    points[3, 0] = 800.0  # exp overflows: outside the domain, inf by both paths
+    for x in points[:8]:
+        with np.errstate(over="ignore"):
+            usable = np.isfinite(slow.safe_objective(x))
+        if usable:
+            assert np.array_equal(_bits(fast.phi(x)), _bits(slow.phi(x)))
+            assert np.array_equal(_bits(fast.dphi(x)), _bits(slow.dphi(x)))
+            assert np.array_equal(_bits(fast.flat_jacobian(x)), _bits(slow.flat_jacobian(x)))
+    with np.errstate(over="ignore"):
+        expected = np.array([slow.safe_objective(x) for x in points])
+        got = fast.safe_objectives(points)
+        assert np.isinf(got[3]) and np.array_equal(_bits(got), _bits(expected))
+        with pytest.raises(DomainError):
+            fast.phi(points[3])
+
+
+def test_select_takes_the_wv_here_and_its_v_is_data_covariance_bit_for_bit() -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stochmod.fit.selection import select
+    from stochmod.fit.weighting import data_covariance
+    from stochmod.signal.wavelet_variance import wvar
+
+    truth = stochmod.model_from_spec("GM(beta=10.0, sigma2=1.0) + WN(sigma2=1.0)", FREQ)
+    x = truth.simulate(3000, rng=4)
+    with ThreadPoolExecutor(2) as pool:
+        for levels in (None, 6):
+            res = select(x, FREQ, candidates=["WN", "GM+WN"], executor=pool, levels=levels)
+            emp = wvar(x, FREQ, levels=levels)
+            V = data_covariance(x, emp, emp.wv.size)
+            assert np.array_equal(_bits(res.wv_covariance), _bits(V))
