@@ -25,7 +25,6 @@ the best point of a grid. The data are scaled to unit mean square inside, so IMU
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import attrs
 import numpy as np
@@ -52,6 +51,7 @@ _EXTRAPOLATE = 0.55  # gain / predicted gain of a step above which longer steps 
 _EXTRAPOLATE_STEPS = 6
 _SHARE_FLOOR = 1e-6  # smallest alpha_i or beta_j the whole record starts from after the prefix
 _DAMPING_FLOOR = 1e-9  # smallest Levenberg weight, relative to the largest curvature
+_DROPPED = 1e-300  # a share held at 0 is below this (its logit is ~ log(tiny))
 
 
 def backcast(x2: np.ndarray) -> float:
@@ -322,17 +322,49 @@ def _curvature(theta: np.ndarray, score: np.ndarray) -> np.ndarray:
 
 
 def _newton_matrix(z: np.ndarray, theta: np.ndarray, score: np.ndarray, info: np.ndarray,
-                   observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Gradient and curvature in z: the observed information (Newton) where it is positive
-    definite, else the expected information (Fisher scoring)."""
-    jac = _theta_jacobian(z, theta)
+                   observed: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient and curvature in the `free` coordinates of z (boolean mask): the observed
+    information (Newton) where it is positive definite, else the expected information
+    (Fisher scoring)."""
+    jac = _theta_jacobian(z, theta)[:, free]
     g = jac.T @ score
-    h = jac.T @ observed @ jac - _curvature(theta, score)
+    h = jac.T @ observed @ jac - _curvature(theta, score)[np.ix_(free, free)]
     try:
         np.linalg.cholesky(h)
     except np.linalg.LinAlgError:
         h = jac.T @ info @ jac
     return g, h
+
+
+def _boundary(theta: np.ndarray, score: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+    """The shares held on the boundary 0, and `theta` moved when the boundary changes.
+
+    A share below ``_SHARE_FLOOR`` whose likelihood falls as it grows at the expense of the
+    others in proportion (its score below their mass-weighted mean, the slack's score 0 included:
+    the sign of its softmax gradient, the Kuhn-Tucker condition of a maximum at 0) is set to 0
+    and held there; one that collapsed although its likelihood rises is raised to the floor.
+    In logits such a share would otherwise creep towards 0 by a constant factor per step, or
+    stay stuck near it (its gradient and curvature are proportional to it).
+
+    Returns the moved parameters (None when unchanged) and the mask of the free coordinates
+    ``(log omega, logits)``.
+    """
+    share = theta[1:]
+    rising = score[1:] > float(share @ score[1:])  # than the mass-weighted mean (slack's 0 included)
+    low = share < _SHARE_FLOOR
+    held = low & ~rising
+    drop = held & (share > _DROPPED)
+    lift = low & rising & (share < 0.5 * _SHARE_FLOOR)
+    free = np.concatenate([[True], ~held])
+    if not (drop.any() or lift.any()):
+        return None, free
+    # the mass moved goes to or comes from the largest share, not the slack: near persistence
+    # 1 the slack sets the variance level, and a small change of it a large one of the likelihood
+    moved = theta.copy()
+    shares = np.where(drop, 0.0, np.where(lift, _SHARE_FLOOR, share))
+    shares[np.argmax(share)] -= shares.sum() - share.sum()
+    moved[1:] = shares
+    return moved, free
 
 
 def _extrapolate(lik: _Likelihood, z: np.ndarray, step: np.ndarray, z_new: np.ndarray,
@@ -379,7 +411,13 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
     ll, score, info, s2, observed = lik.terms(theta, hessian=True)
     lam = 1e-3
     for it in range(1, max_iter + 1):
-        g, h = _newton_matrix(z, theta, score, info, observed)
+        moved, free = _boundary(theta, score)
+        if moved is not None:
+            z = _from_theta(moved)
+            theta = _to_theta(z)
+            ll, score, info, s2, observed = lik.terms(theta, hessian=True)
+            free = _boundary(theta, score)[1]
+        g, h = _newton_matrix(z, theta, score, info, observed, free)
         diag = np.diag(h).copy()
         diag[diag <= 0] = 1.0
         # a share near 0 has a z-curvature near 0 as well: without a floor on its weight, the
@@ -387,7 +425,8 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
         diag = np.maximum(diag, _DAMPING_FLOOR * diag.max())
         improved = False
         for _ in range(40):
-            step = np.linalg.solve(h + lam * np.diag(diag), g)
+            step = np.zeros_like(z)
+            step[free] = np.linalg.solve(h + lam * np.diag(diag), g)
             z_new = z + step
             theta_new = _to_theta(z_new)
             if theta_new[1:].sum() < 1.0 and np.all(np.isfinite(theta_new)):
@@ -399,7 +438,7 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
         if not improved:
             met = bool(g @ np.linalg.lstsq(h, g, rcond=None)[0] < tol)
             return theta, it, met, (ll, info, s2)
-        predicted = float(g @ step)
+        predicted = float(g @ step[free])
         if ll_new - ll > _EXTRAPOLATE * predicted:
             # the likelihood keeps rising beyond the quadratic model's prediction (a maximum on
             # the boundary sum alpha + sum beta -> 1, where each Newton step only gains a
@@ -530,6 +569,13 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
     EstimationError
         No finite likelihood at any start.
     """
+    return _fit_garch(x, p, q, lags, max_iter, tol, start, None)
+
+
+def _fit_garch(x: ArrayLike, p: int, q: int, lags: int, max_iter: int, tol: float,
+               start: ArrayLike | None, nested: GarchFit | None) -> GarchFit:
+    """:func:`fit_garch`; from the estimate of the `nested` smaller model when none of the
+    coefficients it lacks would rise from 0 there (see :func:`_warm_start`)."""
     p = check_positive_int(p, name="p")
     q = check_positive_int(q, name="q", minimum=0)
     k = 1 + p + q
@@ -539,7 +585,10 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
         raise InputError("x is identically zero: it has no volatility to model")
     y = x / scale
     lik = _Likelihood(y, p, q)
-    if start is None:
+    warm = None if nested is None else _warm_start(lik, nested, scale)
+    if warm is not None:
+        theta0 = warm
+    elif start is None:
         theta0 = _grid_start(lik, p, q)
     else:
         theta0 = np.asarray(start, dtype=np.float64).copy()
@@ -550,7 +599,7 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
             raise InputError("start must have alpha, beta > 0 and sum(alpha) + sum(beta) < 1")
         theta0[0] /= scale**2
     max_iter = check_positive_int(max_iter, name="max_iter")
-    if start is None and y.size > 4 * _PREFIX_SAMPLES:
+    if warm is None and start is None and y.size > 4 * _PREFIX_SAMPLES:
         # converge on a prefix first (its scoring steps are cheap); the whole record then
         # needs only a few steps from there
         prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
@@ -572,21 +621,43 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
     )
 
 
+def _warm_start(lik: _Likelihood, fit: GarchFit, scale: float) -> np.ndarray | None:
+    """The smaller model `fit`'s estimate as a start for ``(lik.p, lik.q)`` (the data scaled by
+    `scale`), the coefficients it lacks at ``_SHARE_FLOOR``; None when it does not nest, or when
+    one of those would rise from 0 there (then the maximum is elsewhere: the cold start's grid
+    and prefix get there for less than steps on the whole record)."""
+    p, q = lik.p, lik.q
+    p0, q0 = fit.order
+    if p0 > p or q0 > q:
+        return None
+    theta = _raise_shares(np.concatenate([fit.omega / scale**2, fit.alpha, np.zeros(p - p0),
+                                          fit.beta, np.zeros(q - q0)]))
+    score = lik.terms(theta)[1]
+    added = np.r_[1 + p0 : 1 + p, 1 + p + q0 : 1 + p + q]
+    if np.any(score[added] > theta[1:] @ score[1:]):
+        return None
+    return theta
+
+
 def select_garch(x: ArrayLike, *, max_p: int = 2, max_q: int = 2, lags: int = 10,
-                 alpha: float = 0.05, **options: Any) -> GarchFit:
+                 alpha: float = 0.05, max_iter: int = 200, tol: float = 1e-8) -> GarchFit:
     """Grow GARCH(p, q) from (1, 1) until Engle's LM test finds no ARCH effect left.
 
     Models of total order ``p + q = 2, 3, ...`` (p >= 1) are fitted in turn; at each total order
     the one of highest likelihood is kept, and the growth stops at the first whose standardized
     residuals ``x_t / sigma_t`` pass the LM test at level `alpha` (Section 5). When none passes
     up to ``(max_p, max_q)``, the fit of best AIC is returned (its ``lm_test`` says it failed).
+
+    A candidate that nests the previous order's best fit starts from its estimate (the added
+    coefficients near 0, where its likelihood is already that fit's) unless one of them would
+    rise from there; `max_iter` and `tol` are :func:`fit_garch`'s.
     """
     alpha = check_alpha(alpha)
     max_p = check_positive_int(max_p, name="max_p")
     max_q = check_positive_int(max_q, name="max_q", minimum=0)
     tried: list[GarchFit] = []
     for total in range(2 if max_q > 0 else 1, max_p + max_q + 1):
-        level = [fit_garch(x, p, total - p, lags=lags, **options)
+        level = [_fit_garch(x, p, total - p, lags, max_iter, tol, None, tried[-1] if tried else None)
                  for p in range(1, max_p + 1) if 0 <= total - p <= max_q]
         if not level:
             continue
