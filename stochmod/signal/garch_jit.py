@@ -129,17 +129,13 @@ def garch_pass(x2: np.ndarray, bc: float, omega: float, alpha: np.ndarray, beta:
             t += 8
         for i in range(t, m):
             sum_log += math.log(s2[lead + i])
-        if level == 0:
-            for t in range(m):
-                sum_r += x2[start + t] / s2[lead + t]
-        else:
-            for t in range(m):
-                inv = 1.0 / s2[lead + t]
-                r = x2[start + t] * inv
-                sum_r += r
-                u[t] = (1.0 - r) * inv
-                w[t] = inv * inv
-                c2[t] = 2.0 * r - 1.0
+        for t in range(m):  # (at level 0 too: the sum then rounds as at the levels above)
+            inv = 1.0 / s2[lead + t]
+            r = x2[start + t] * inv
+            sum_r += r
+            u[t] = (1.0 - r) * inv
+            w[t] = inv * inv
+            c2[t] = 2.0 * r - 1.0
         if write:
             for t in range(m):
                 s2_out[start + t] = s2[lead + t]
