@@ -88,3 +88,9 @@ def test_disable_jit_environment_variable_forces_numpy() -> None:
                           "print(garch_jit.AVAILABLE)"], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"
+
+
+@needs_numba
+def test_prepare_leaves_the_pass_compiled_for_forked_workers() -> None:
+    garch_jit.prepare()
+    assert garch_jit.garch_pass.signatures  # machine code in this process, inherited by a fork
