@@ -16,9 +16,10 @@ for all of them), so the log-likelihood, its analytic gradient and the expected 
 information ``J = 1/2 sum_t (d sigma_t^2)(d sigma_t^2)^T / sigma_t^4`` (eq. 9) are vectorised.
 With numba (the ``fast`` extra) one compiled pass over the data computes all of them at once
 (:mod:`stochmod.signal.garch_jit`); the numpy path is the fallback and reaches the same maxima.
-The maximum is found by Fisher scoring with Levenberg damping in unconstrained coordinates
-(``log omega``; ``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from
-the best point of a grid. The data are scaled to unit mean square inside, so IMU-scale inputs
+The maximum is found by Newton steps on the observed information (Fisher scoring where it is
+not positive definite) with Levenberg damping in unconstrained coordinates (``log omega``;
+``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from the best point of
+a grid; a coefficient whose maximum is at 0 is held there (see :func:`_boundary`). The data are scaled to unit mean square inside, so IMU-scale inputs
 (variances of 1e-8 u^2 and below) are handled as given; results are reported in the input's unit.
 """
 
