@@ -60,3 +60,12 @@ def test_select_garch_grows_to_a_needed_coefficient() -> None:
     assert garch.fit_garch(x, 1, 1).lm_test.pvalue < 0.05
     est = np.concatenate([[truth[0]], truth[1], truth[2]])
     assert np.all(np.abs(fit.params - est) < 4 * fit.std_errors), (fit.params, fit.std_errors)
+
+
+def test_underflowed_omega_and_shares_map_to_finite_coordinates() -> None:
+    """A maximum approached with omega -> 0 (a near-integrated process on a prefix) can leave
+    omega at 0.0 in float64; the next stage must start from it, not fail on log(0)."""
+    z = garch._from_theta(np.array([0.0, 0.0, 0.9]))
+    assert np.all(np.isfinite(z)) and z[0] < -700 and z[1] < -700
+    back = garch._to_theta(z)
+    assert back[0] < 1e-300 and back[2] == pytest.approx(0.9, rel=1e-12)

@@ -51,6 +51,7 @@ _PREFIX_SAMPLES = 200_000
 _EXTRAPOLATE = 0.55  # gain / predicted gain of a step above which longer steps are tried
 _EXTRAPOLATE_STEPS = 6
 _SHARE_FLOOR = 1e-6  # smallest alpha_i or beta_j the whole record starts from after the prefix
+_OMEGA_FLOOR = 1e-12  # smallest omega (of data scaled to unit mean square) a stage starts from
 _DAMPING_FLOOR = 1e-9  # smallest Levenberg weight, relative to the largest curvature
 _DROPPED = 1e-300  # a share held at 0 is below this (its logit is ~ log(tiny))
 
@@ -157,10 +158,12 @@ def _to_theta(z: np.ndarray) -> np.ndarray:
 
 
 def _from_theta(theta: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`_to_theta`; a share that underflowed to 0 maps to a very negative logit."""
+    """Inverse of :func:`_to_theta`; an omega or a share that underflowed to 0 maps to a very
+    negative log or logit."""
     tiny = np.finfo(np.float64).tiny
     slack = max(1.0 - theta[1:].sum(), tiny)
-    return np.concatenate([[math.log(theta[0])], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
+    log_omega = math.log(max(theta[0], tiny))  # omega may underflow where the maximum has it -> 0
+    return np.concatenate([[log_omega], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
 
 
 def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -385,13 +388,15 @@ def _extrapolate(lik: _Likelihood, z: np.ndarray, step: np.ndarray, z_new: np.nd
 
 
 def _raise_shares(theta: np.ndarray) -> np.ndarray:
-    """`theta` with every alpha_i, beta_j at least ``_SHARE_FLOOR``, taken from the largest.
+    """`theta` with every alpha_i, beta_j at least ``_SHARE_FLOOR``, taken from the largest, and
+    omega at least ``_OMEGA_FLOOR``.
 
     A share that collapsed to ~0 on the prefix has a z-gradient ~0 on the whole record too (it
     is proportional to the share), so the whole record could not move it even where its
     maximum has it well inside; raised to the floor it can go either way.
     """
     theta = theta.copy()
+    theta[0] = max(theta[0], _OMEGA_FLOOR)  # the same for omega, which may underflow to 0
     share = theta[1:]
     raised = np.maximum(share, _SHARE_FLOOR)
     raised[np.argmax(share)] -= raised.sum() - share.sum()
