@@ -27,6 +27,7 @@ from stochmod._validation import check_positive_int
 from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
+from stochmod.signal import garch_jit
 from stochmod.signal.arma import ArmaFit, fit_arma, select_arma
 from stochmod.signal.garch import GarchFit, fit_garch, select_garch
 
@@ -131,7 +132,9 @@ class GarchCombiner:
         args = [(s, i, j, *common) for s, (i, j) in zip(series, cols)]
         if workers > 1 and len(cols) > 1:
             # the worker processes inherit this one's libraries and their settings (BLAS
-            # threads included), so their sums round as here: the serial result exactly
+            # threads included), so their sums round as here: the serial result exactly;
+            # and the compiled GARCH pass, loaded once here
+            garch_jit.prepare()
             with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(cols))) as pool:
                 outs = list(pool.map(_fit_axis, *zip(*args)))
         else:

@@ -14,16 +14,18 @@ The variance recursion is a first-order-in-``sigma^2`` IIR filter of ``x^2``: on
 ``sigma_t^2`` with respect to the parameters obey the same recursion (one more filter call
 for all of them), so the log-likelihood, its analytic gradient and the expected (Fisher)
 information ``J = 1/2 sum_t (d sigma_t^2)(d sigma_t^2)^T / sigma_t^4`` (eq. 9) are vectorised.
-The maximum is found by Fisher scoring with Levenberg damping in unconstrained coordinates
-(``log omega``; ``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from
-the best point of a grid. The data are scaled to unit mean square inside, so IMU-scale inputs
+With numba (the ``fast`` extra) one compiled pass over the data computes all of them at once
+(:mod:`stochmod.signal.garch_jit`); the numpy path is the fallback and reaches the same maxima.
+The maximum is found by Newton steps on the observed information (Fisher scoring where it is
+not positive definite) with Levenberg damping in unconstrained coordinates (``log omega``;
+``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from the best point of
+a grid; a coefficient whose maximum is at 0 is held there (see :func:`_boundary`). The data are scaled to unit mean square inside, so IMU-scale inputs
 (variances of 1e-8 u^2 and below) are handled as given; results are reported in the input's unit.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import attrs
 import numpy as np
@@ -33,6 +35,7 @@ from scipy.signal import lfilter, lfiltic
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_alpha, check_positive_int
 from stochmod.errors import EstimationError, InputError
+from stochmod.signal import garch_jit
 from stochmod.signal._estimates import EstimatesMixin
 from stochmod.signal.arch_lm import ArchLMTest, arch_lm_test
 
@@ -47,6 +50,10 @@ _GRID_SAMPLES = 100_000
 _PREFIX_SAMPLES = 200_000
 _EXTRAPOLATE = 0.55  # gain / predicted gain of a step above which longer steps are tried
 _EXTRAPOLATE_STEPS = 6
+_SHARE_FLOOR = 1e-6  # smallest alpha_i or beta_j the whole record starts from after the prefix
+_OMEGA_FLOOR = 1e-12  # smallest omega (of data scaled to unit mean square) a stage starts from
+_DAMPING_FLOOR = 1e-9  # smallest Levenberg weight, relative to the largest curvature
+_DROPPED = 1e-300  # a share held at 0 is below this (its logit is ~ log(tiny))
 
 
 def backcast(x2: np.ndarray) -> float:
@@ -106,6 +113,16 @@ def _check_theta(omega: float, alpha: np.ndarray, beta: np.ndarray) -> None:
         raise InputError(f"GARCH alpha and beta must be finite and >= 0, got {alpha}, {beta}")
 
 
+def _parameters(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The validated data and ``theta = (omega, alpha..., beta...)`` of the public functions."""
+    x = as_signal(x, name="x")
+    a = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
+    b = np.atleast_1d(np.asarray(beta, dtype=np.float64))
+    _check_theta(float(omega), a, b)
+    return x, np.concatenate([[float(omega)], a, b])
+
+
 def garch_variance(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
     """Conditional variances ``sigma_t^2`` of eq. 7 for the data `x` (unit u, result u^2).
 
@@ -119,18 +136,14 @@ def garch_variance(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike
         ARCH coefficients on ``x_{t-i}^2`` (length p) and GARCH coefficients on
         ``sigma_{t-j}^2`` (length q), all >= 0.
     """
-    x = as_signal(x, name="x")
-    a = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
-    b = np.atleast_1d(np.asarray(beta, dtype=np.float64))
-    _check_theta(float(omega), a, b)
-    x2 = x * x
-    return _recursion(float(omega), a, b, x2, backcast(x2))
+    x, theta = _parameters(x, omega, alpha, beta)
+    return _Likelihood(x, np.size(alpha), theta.size - 1 - np.size(alpha)).variance(theta)[1]
 
 
 def garch_loglikelihood(x: ArrayLike, omega: float, alpha: ArrayLike, beta: ArrayLike) -> float:
     """Gaussian log-likelihood (nats) of `x` under GARCH(p, q) with these parameters."""
-    x = as_signal(x, name="x")
-    return _loglik(garch_variance(x, omega, alpha, beta), x * x)
+    x, theta = _parameters(x, omega, alpha, beta)
+    return _Likelihood(x, np.size(alpha), theta.size - 1 - np.size(alpha)).value(theta)
 
 
 # ------------------------------------------------------------------ unconstrained coordinates
@@ -145,10 +158,12 @@ def _to_theta(z: np.ndarray) -> np.ndarray:
 
 
 def _from_theta(theta: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`_to_theta`; a share that underflowed to 0 maps to a very negative logit."""
+    """Inverse of :func:`_to_theta`; an omega or a share that underflowed to 0 maps to a very
+    negative log or logit."""
     tiny = np.finfo(np.float64).tiny
     slack = max(1.0 - theta[1:].sum(), tiny)
-    return np.concatenate([[math.log(theta[0])], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
+    log_omega = math.log(max(theta[0], tiny))  # omega may underflow where the maximum has it -> 0
+    return np.concatenate([[log_omega], np.log(np.maximum(theta[1:], tiny)) - math.log(slack)])
 
 
 def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -162,28 +177,53 @@ def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
 
 
 class _Likelihood:
-    """Log-likelihood, score, expected information and observed Hessian of scaled data."""
+    """Log-likelihood, score, expected information and observed Hessian of scaled data.
+
+    Through the compiled pass of :mod:`stochmod.signal.garch_jit` when it is available at
+    construction, else through numpy and :func:`scipy.signal.lfilter` (which keeps the
+    variances of its last two evaluations for the :meth:`terms` that follows an accepted step).
+    """
 
     def __init__(self, y: np.ndarray, p: int, q: int):
-        self.x2 = y * y
+        self.x2 = np.ascontiguousarray(y * y)
         self.bc = backcast(self.x2)
         self.p, self.q = p, q
-        # the rows of the recursion's inputs that do not depend on the parameters
-        self._drive = np.empty((1 + p + q, self.x2.size))
-        self._drive[0] = 1.0
-        for i in range(1, p + 1):
-            self._drive[i] = _lagged(self.x2, i, self.bc)
+        self.compiled = garch_jit.AVAILABLE
+        self._drive: np.ndarray | None = None
+        self._recent: dict[bytes, np.ndarray] = {}
+
+    def _compiled_pass(self, theta: np.ndarray, level: int, s2: np.ndarray | None = None
+                       ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        k = theta.size
+        score, info, observed = np.zeros(k), np.zeros((k, k)), np.zeros((k, k))
+        ll = garch_jit.garch_pass(self.x2, self.bc, float(theta[0]),
+                                  np.ascontiguousarray(theta[1 : 1 + self.p]),
+                                  np.ascontiguousarray(theta[1 + self.p :]), level,
+                                  np.empty(0) if s2 is None else s2, score, info, observed)
+        return ll, score, info, observed
 
     def variance(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
         """Log-likelihood (-inf where a variance is not positive and finite) and sigma^2 (T,)."""
         omega, alpha, beta = _split(theta, self.p)
+        if self.compiled:
+            s2 = np.empty_like(self.x2)
+            ll = self._compiled_pass(theta, 0, s2)[0]
+            if ll > -math.inf:
+                return ll, s2
         s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
         if not np.all(s2 > 0) or not np.all(np.isfinite(s2)):
             return -math.inf, s2
         return _loglik(s2, self.x2), s2
 
     def value(self, theta: np.ndarray) -> float:
-        return self.variance(theta)[0]
+        """Log-likelihood (-inf where a variance is not positive and finite)."""
+        if self.compiled:
+            return self._compiled_pass(theta, 0)[0]
+        ll, s2 = self.variance(theta)
+        if len(self._recent) >= 2:
+            self._recent.pop(next(iter(self._recent)))
+        self._recent[theta.tobytes()] = s2
+        return ll
 
     def full(self, theta: np.ndarray, s2: np.ndarray | None = None
              ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
@@ -198,7 +238,7 @@ class _Likelihood:
               ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """As :meth:`full`, plus the observed information ``-d^2 loglik / d theta^2`` (k, k)
         when `hessian` (else None). `ll`, the log-likelihood at `theta` with `s2` when already
-        known, saves its sum.
+        known, saves its sum (numpy path; the compiled pass computes everything in one go).
 
         With ``u_t = (1 - r_t) / sigma_t^2``, ``r_t = x_t^2 / sigma_t^2`` and ``D_t`` the
         derivatives of ``sigma_t^2``: score ``-1/2 sum u_t D_t``; the observed information is
@@ -206,10 +246,21 @@ class _Likelihood:
         derivatives obey the recursion driven by ``D_{t-j}`` in the ``beta_j`` rows and columns,
         so ``sum_t u_t d^2 sigma_t^2`` needs only the adjoint filter of u (one more filter).
         """
+        if self.compiled:
+            s2 = np.empty_like(self.x2)
+            ll, score, info, observed = self._compiled_pass(theta, 2 if hessian else 1, s2)
+            return ll, score, info, s2, observed if hessian else None
         omega, alpha, beta = _split(theta, self.p)
+        if s2 is None:
+            s2 = self._recent.get(theta.tobytes())
         if s2 is None:
             s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
         p, q = self.p, self.q
+        if self._drive is None:  # the rows of the recursion's inputs that do not depend on theta
+            self._drive = np.empty((1 + p + q, self.x2.size))
+            self._drive[0] = 1.0
+            for i in range(1, p + 1):
+                self._drive[i] = _lagged(self.x2, i, self.bc)
         drive = self._drive  # the beta rows are rewritten in place (lfilter returns a new array)
         for j in range(1, q + 1):
             drive[p + j, :j] = self.bc
@@ -275,12 +326,13 @@ def _curvature(theta: np.ndarray, score: np.ndarray) -> np.ndarray:
 
 
 def _newton_matrix(z: np.ndarray, theta: np.ndarray, score: np.ndarray, info: np.ndarray,
-                   observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Gradient and curvature in z: the observed information (Newton) where it is positive
-    definite, else the expected information (Fisher scoring)."""
-    jac = _theta_jacobian(z, theta)
+                   observed: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient and curvature in the `free` coordinates of z (boolean mask): the observed
+    information (Newton) where it is positive definite, else the expected information
+    (Fisher scoring)."""
+    jac = _theta_jacobian(z, theta)[:, free]
     g = jac.T @ score
-    h = jac.T @ observed @ jac - _curvature(theta, score)
+    h = jac.T @ observed @ jac - _curvature(theta, score)[np.ix_(free, free)]
     try:
         np.linalg.cholesky(h)
     except np.linalg.LinAlgError:
@@ -288,21 +340,68 @@ def _newton_matrix(z: np.ndarray, theta: np.ndarray, score: np.ndarray, info: np
     return g, h
 
 
+def _boundary(theta: np.ndarray, score: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+    """The shares held on the boundary 0, and `theta` moved when the boundary changes.
+
+    A share below ``_SHARE_FLOOR`` whose likelihood falls as it grows at the expense of the
+    others in proportion (its score below their mass-weighted mean, the slack's score 0 included:
+    the sign of its softmax gradient, the Kuhn-Tucker condition of a maximum at 0) is set to 0
+    and held there; one that collapsed although its likelihood rises is raised to the floor.
+    In logits such a share would otherwise creep towards 0 by a constant factor per step, or
+    stay stuck near it (its gradient and curvature are proportional to it).
+
+    Returns the moved parameters (None when unchanged) and the mask of the free coordinates
+    ``(log omega, logits)``.
+    """
+    share = theta[1:]
+    rising = score[1:] > float(share @ score[1:])  # than the mass-weighted mean (slack's 0 included)
+    low = share < _SHARE_FLOOR
+    held = low & ~rising
+    drop = held & (share > _DROPPED)
+    lift = low & rising & (share < 0.5 * _SHARE_FLOOR)
+    free = np.concatenate([[True], ~held])
+    if not (drop.any() or lift.any()):
+        return None, free
+    # the mass moved goes to or comes from the largest share, not the slack: near persistence
+    # 1 the slack sets the variance level, and a small change of it a large one of the likelihood
+    moved = theta.copy()
+    shares = np.where(drop, 0.0, np.where(lift, _SHARE_FLOOR, share))
+    shares[np.argmax(share)] -= shares.sum() - share.sum()
+    moved[1:] = shares
+    return moved, free
+
+
 def _extrapolate(lik: _Likelihood, z: np.ndarray, step: np.ndarray, z_new: np.ndarray,
-                 theta_new: np.ndarray, ll_new: float, s2_new: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+                 theta_new: np.ndarray, ll_new: float) -> tuple[np.ndarray, np.ndarray, float]:
     """``z + 2^k step``, k = 1, 2, .. while the log-likelihood increases (from the accepted
-    ``z + step``); returns the best point, its parameters, log-likelihood and sigma^2."""
+    ``z + step``); returns the best point, its parameters and log-likelihood."""
     for k in range(1, _EXTRAPOLATE_STEPS + 1):
         z_try = z + 2.0**k * step
         theta_try = _to_theta(z_try)
         if not (theta_try[1:].sum() < 1.0 and np.all(np.isfinite(theta_try))):
             break
-        ll_try, s2_try = lik.variance(theta_try)
+        ll_try = lik.value(theta_try)
         if not ll_try > ll_new:
             break
-        z_new, theta_new, ll_new, s2_new = z_try, theta_try, ll_try, s2_try
-    return z_new, theta_new, ll_new, s2_new
+        z_new, theta_new, ll_new = z_try, theta_try, ll_try
+    return z_new, theta_new, ll_new
+
+
+def _raise_shares(theta: np.ndarray) -> np.ndarray:
+    """`theta` with every alpha_i, beta_j at least ``_SHARE_FLOOR``, taken from the largest, and
+    omega at least ``_OMEGA_FLOOR``.
+
+    A share that collapsed to ~0 on the prefix has a z-gradient ~0 on the whole record too (it
+    is proportional to the share), so the whole record could not move it even where its
+    maximum has it well inside; raised to the floor it can go either way.
+    """
+    theta = theta.copy()
+    theta[0] = max(theta[0], _OMEGA_FLOOR)  # the same for omega, which may underflow to 0
+    share = theta[1:]
+    raised = np.maximum(share, _SHARE_FLOOR)
+    raised[np.argmax(share)] -= raised.sum() - share.sum()
+    theta[1:] = raised
+    return theta
 
 
 def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
@@ -318,16 +417,26 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
     ll, score, info, s2, observed = lik.terms(theta, hessian=True)
     lam = 1e-3
     for it in range(1, max_iter + 1):
-        g, h = _newton_matrix(z, theta, score, info, observed)
+        moved, free = _boundary(theta, score)
+        if moved is not None:
+            z = _from_theta(moved)
+            theta = _to_theta(z)
+            ll, score, info, s2, observed = lik.terms(theta, hessian=True)
+            free = _boundary(theta, score)[1]
+        g, h = _newton_matrix(z, theta, score, info, observed, free)
         diag = np.diag(h).copy()
         diag[diag <= 0] = 1.0
+        # a share near 0 has a z-curvature near 0 as well: without a floor on its weight, the
+        # damping could not shorten a step that the near-singular h sends off in its direction
+        diag = np.maximum(diag, _DAMPING_FLOOR * diag.max())
         improved = False
         for _ in range(40):
-            step = np.linalg.solve(h + lam * np.diag(diag), g)
+            step = np.zeros_like(z)
+            step[free] = np.linalg.solve(h + lam * np.diag(diag), g)
             z_new = z + step
             theta_new = _to_theta(z_new)
             if theta_new[1:].sum() < 1.0 and np.all(np.isfinite(theta_new)):
-                ll_new, s2_new = lik.variance(theta_new)
+                ll_new = lik.value(theta_new)
                 if ll_new >= ll:
                     improved = True
                     break
@@ -335,16 +444,15 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
         if not improved:
             met = bool(g @ np.linalg.lstsq(h, g, rcond=None)[0] < tol)
             return theta, it, met, (ll, info, s2)
-        predicted = float(g @ step)
+        predicted = float(g @ step[free])
         if ll_new - ll > _EXTRAPOLATE * predicted:
             # the likelihood keeps rising beyond the quadratic model's prediction (a maximum on
             # the boundary sum alpha + sum beta -> 1, where each Newton step only gains a
             # constant factor): longer steps along the same direction while they gain
-            z_new, theta_new, ll_new, s2_new = _extrapolate(lik, z, step, z_new, theta_new,
-                                                            ll_new, s2_new)
+            z_new, theta_new, ll_new = _extrapolate(lik, z, step, z_new, theta_new, ll_new)
         gain = ll_new - ll
         z, theta = z_new, theta_new
-        ll, score, info, s2, observed = lik.terms(theta, s2_new, hessian=True, ll=ll_new)
+        ll, score, info, s2, observed = lik.terms(theta, hessian=True, ll=ll_new)
         lam = max(lam / 10.0, 1e-12)
         if predicted < tol and gain <= tol:
             return theta, it, True, (ll, info, s2)
@@ -467,6 +575,13 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
     EstimationError
         No finite likelihood at any start.
     """
+    return _fit_garch(x, p, q, lags, max_iter, tol, start, None)
+
+
+def _fit_garch(x: ArrayLike, p: int, q: int, lags: int, max_iter: int, tol: float,
+               start: ArrayLike | None, nested: GarchFit | None) -> GarchFit:
+    """:func:`fit_garch`; from the estimate of the `nested` smaller model when none of the
+    coefficients it lacks would rise from 0 there (see :func:`_warm_start`)."""
     p = check_positive_int(p, name="p")
     q = check_positive_int(q, name="q", minimum=0)
     k = 1 + p + q
@@ -476,7 +591,10 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
         raise InputError("x is identically zero: it has no volatility to model")
     y = x / scale
     lik = _Likelihood(y, p, q)
-    if start is None:
+    warm = None if nested is None else _warm_start(lik, nested, scale)
+    if warm is not None:
+        theta0 = warm
+    elif start is None:
         theta0 = _grid_start(lik, p, q)
     else:
         theta0 = np.asarray(start, dtype=np.float64).copy()
@@ -487,11 +605,11 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
             raise InputError("start must have alpha, beta > 0 and sum(alpha) + sum(beta) < 1")
         theta0[0] /= scale**2
     max_iter = check_positive_int(max_iter, name="max_iter")
-    if start is None and y.size > 4 * _PREFIX_SAMPLES:
+    if warm is None and start is None and y.size > 4 * _PREFIX_SAMPLES:
         # converge on a prefix first (its scoring steps are cheap); the whole record then
         # needs only a few steps from there
         prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
-        theta0 = _maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0]
+        theta0 = _raise_shares(_maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0])
     theta, n_iter, converged, (ll, info, s2) = _maximise(lik, theta0, max_iter, tol)
     try:
         cov = np.linalg.inv(info)
@@ -509,21 +627,43 @@ def fit_garch(x: ArrayLike, p: int = 1, q: int = 1, *, lags: int = 10, max_iter:
     )
 
 
+def _warm_start(lik: _Likelihood, fit: GarchFit, scale: float) -> np.ndarray | None:
+    """The smaller model `fit`'s estimate as a start for ``(lik.p, lik.q)`` (the data scaled by
+    `scale`), the coefficients it lacks at ``_SHARE_FLOOR``; None when it does not nest, or when
+    one of those would rise from 0 there (then the maximum is elsewhere: the cold start's grid
+    and prefix get there for less than steps on the whole record)."""
+    p, q = lik.p, lik.q
+    p0, q0 = fit.order
+    if p0 > p or q0 > q:
+        return None
+    theta = _raise_shares(np.concatenate([fit.omega / scale**2, fit.alpha, np.zeros(p - p0),
+                                          fit.beta, np.zeros(q - q0)]))
+    score = lik.terms(theta)[1]
+    added = np.r_[1 + p0 : 1 + p, 1 + p + q0 : 1 + p + q]
+    if np.any(score[added] > theta[1:] @ score[1:]):
+        return None
+    return theta
+
+
 def select_garch(x: ArrayLike, *, max_p: int = 2, max_q: int = 2, lags: int = 10,
-                 alpha: float = 0.05, **options: Any) -> GarchFit:
+                 alpha: float = 0.05, max_iter: int = 200, tol: float = 1e-8) -> GarchFit:
     """Grow GARCH(p, q) from (1, 1) until Engle's LM test finds no ARCH effect left.
 
     Models of total order ``p + q = 2, 3, ...`` (p >= 1) are fitted in turn; at each total order
     the one of highest likelihood is kept, and the growth stops at the first whose standardized
     residuals ``x_t / sigma_t`` pass the LM test at level `alpha` (Section 5). When none passes
     up to ``(max_p, max_q)``, the fit of best AIC is returned (its ``lm_test`` says it failed).
+
+    A candidate that nests the previous order's best fit starts from its estimate (the added
+    coefficients near 0, where its likelihood is already that fit's) unless one of them would
+    rise from there; `max_iter` and `tol` are :func:`fit_garch`'s.
     """
     alpha = check_alpha(alpha)
     max_p = check_positive_int(max_p, name="max_p")
     max_q = check_positive_int(max_q, name="max_q", minimum=0)
     tried: list[GarchFit] = []
     for total in range(2 if max_q > 0 else 1, max_p + max_q + 1):
-        level = [fit_garch(x, p, total - p, lags=lags, **options)
+        level = [_fit_garch(x, p, total - p, lags, max_iter, tol, None, tried[-1] if tried else None)
                  for p in range(1, max_p + 1) if 0 <= total - p <= max_q]
         if not level:
             continue
