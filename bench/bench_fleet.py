@@ -2,29 +2,44 @@
 
 Run: ``python bench/bench_fleet.py [--files 12] [--n 1048576] [--workers 2]`` (defaults: 12
 files x 6 axes x 2^20 samples at 100 Hz, the XSens MTi-G models of the bundled example, each
-file its own seed). Both runs calibrate every file with ``stochmod calibrate FILE ...
---candidates GM+WN 2*GM+WN WN+RW --no-plots`` (three candidates per axis, to keep the run
-practical): serially (no ``--workers``: one file after the other in one process, each file's
-fits in its own thread) and with ``--workers N`` (one dask task per file). The printed ratio
-is serial / parallel wall time; the runs' results are checked to be identical. The runs are
-made in the order parallel, serial, serial, parallel (so that a drift of the machine's load
-hits both alike) and the best of each kind is kept; on a shared machine they stay noisy.
+file its own seed). Every run is the command a user types, in a fresh process (its imports
+and the cluster's start-up included): ``stochmod calibrate FILE ... --candidates GM+WN
+2*GM+WN WN+RW --no-plots`` (three candidates per axis, to keep the run practical), serially
+(no ``--workers``: one file after the other in one process, each file's fits in its own
+thread), with ``--workers N`` (one dask task per file) and with ``--workers 1`` (the same
+fleet machinery on one worker). The runs are made in the order parallel, serial, one-worker
+(and back again with ``--rounds 2``, so that a drift of the machine's load hits all alike);
+the best of each kind is kept and the runs' results are checked to be identical.
+
+Printed: every run's wall time and the CPU time of its whole process tree; the ratios
+serial / parallel and one-worker / parallel; and, from ``OUT/fleet_tasks.csv`` (each task's
+stages timed inside its worker, :class:`stochmod.fleet.TaskTiming`), where the parallel
+run's time went: per stage, per worker (start-up, busy, idle gaps, tail) and the CPU-time
+scaling (the tasks' CPU over the run's wall: how many cores the fleet kept busy), which
+says more than the wall ratio on a shared machine.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import json
+import resource
+import shutil
+import subprocess
+import sys
 import tempfile
 import time
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-from stochmod.cli import main as cli
 from stochmod.examples import XSENS_COLUMNS, xsens_mtig
+from stochmod.fleet import STAGES
 
 CANDIDATES = ["GM+WN", "2*GM+WN", "WN+RW"]
+STAGE_NAMES = [*dict.fromkeys(STAGES.values()), "other"]
 
 
 def _files(folder: Path, n_files: int, n: int) -> list[Path]:
@@ -37,13 +52,75 @@ def _files(folder: Path, n_files: int, n: int) -> list[Path]:
     return paths
 
 
-def _run(files: list[Path], out: Path, extra: list[str]) -> float:
-    t0 = time.perf_counter()
-    code = cli(["calibrate", *map(str, files), "--candidates", *CANDIDATES, "--no-plots",
-                "--out", str(out), *extra])
-    if code != 0:
-        raise SystemExit(f"calibrate failed with code {code}")
-    return time.perf_counter() - t0
+def _command() -> list[str]:
+    """The ``stochmod`` console script of this environment (or the same entry point)."""
+    script = Path(sys.executable).with_name("stochmod")
+    if script.exists():
+        return [str(script)]
+    found = shutil.which("stochmod")
+    return [found] if found else [sys.executable, "-c",
+                                  "import sys; from stochmod.cli import main; sys.exit(main())"]
+
+
+def _children_cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _run(files: list[Path], out: Path, extra: list[str]) -> dict:
+    """One calibrate command in a fresh process: wall, CPU of the process tree, task rows."""
+    cmd = [*_command(), "calibrate", *map(str, files), "--candidates", *CANDIDATES,
+           "--no-plots", "--out", str(out), *extra]
+    cpu, t0, epoch = _children_cpu(), time.perf_counter(), time.time()
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    wall, cpu = time.perf_counter() - t0, _children_cpu() - cpu
+    if done.returncode != 0:
+        raise SystemExit(f"calibrate failed with code {done.returncode}:\n{done.stderr}")
+    with open(out / "fleet_tasks.csv") as fh:
+        tasks = [{k: v if k in ("unit_name", "host") else float(v) for k, v in r.items()}
+                 for r in csv.DictReader(fh)]
+    for t in tasks:  # s from the command's start
+        t["start"], t["end"] = t["start"] - epoch, t["end"] - epoch
+    return {"wall": wall, "cpu": cpu, "tasks": tasks, "out": out}
+
+
+def _stage_table(tasks: list[dict]) -> list[str]:
+    wall = sum(t["wall"] for t in tasks)
+    lines = [f"  {'stage':8s} {'wall s':>8s} {'CPU s':>8s} {'CPU/wall':>8s} {'share':>6s}"]
+    for name in STAGE_NAMES:
+        w = sum(t[f"{name}_wall"] for t in tasks)
+        c = sum(t[f"{name}_cpu"] for t in tasks)
+        if w > 0:
+            lines.append(f"  {name:8s} {w:8.1f} {c:8.1f} {c / w:8.2f} {w / wall:6.1%}")
+    cpu = sum(t["cpu"] for t in tasks)
+    lines.append(f"  {'all':8s} {wall:8.1f} {cpu:8.1f} {cpu / wall:8.2f}")
+    return lines
+
+
+def _worker_table(run: dict) -> list[str]:
+    """Per worker process: start-up (the command's start to its first task: imports, the
+    cluster's start), tasks, busy time, idle
+    gaps between its tasks, and the tail (its last task's end to the run's end)."""
+    by_pid: dict[float, list[dict]] = defaultdict(list)
+    for t in run["tasks"]:
+        by_pid[t["pid"]].append(t)
+    lines = [f"  {'worker':>8s} {'tasks':>5s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
+             f"{'tail':>6s} {'CPU':>7s} {'s/file':>6s} {'faults/file':>11s}"]
+    for pid, ts in sorted(by_pid.items()):
+        ts.sort(key=lambda t: t["start"])
+        gaps = sum(b["start"] - a["end"] for a, b in zip(ts, ts[1:]))
+        busy = sum(t["wall"] for t in ts)
+        lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['start']:8.1f} {busy:7.1f} {gaps:6.2f} "
+                     f"{run['wall'] - ts[-1]['end']:6.1f} {sum(t['cpu'] for t in ts):7.1f} "
+                     f"{busy / len(ts):6.2f} {np.mean([t['page_faults'] for t in ts]):11.0f}")
+    return lines
+
+
+def _same_results(files: list[Path], outs: list[Path]) -> bool:
+    def columns(d: Path, f: Path) -> dict:
+        return json.loads((d / f.stem / "calibration.json").read_text())["columns"]
+    return all(columns(d, f) == columns(outs[0], f) for f in files for d in outs) and all(
+        (d / "fleet.csv").read_text() == (outs[0] / "fleet.csv").read_text() for d in outs)
 
 
 def main() -> None:
@@ -51,29 +128,55 @@ def main() -> None:
     p.add_argument("--files", type=int, default=12)
     p.add_argument("--n", type=int, default=2**20, help="samples per axis (default 2^20)")
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--rounds", type=int, choices=(1, 2), default=2,
-                   help="1: parallel then serial; 2: parallel, serial, serial, parallel")
+    p.add_argument("--rounds", type=int, choices=(1, 2), default=1,
+                   help="1: parallel, serial, one-worker; 2: and back again")
+    p.add_argument("--no-one-worker", action="store_true", help="skip the one-worker fleet runs")
     a = p.parse_args()
+    kinds = ["parallel", "serial"] + ([] if a.no_one_worker else ["one-worker"])
+    order = kinds + kinds[::-1] if a.rounds == 2 else kinds
+    extra = {"parallel": ["--workers", str(a.workers)], "serial": [], "one-worker": ["--workers", "1"]}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         files = _files(folder, a.files, a.n)
-        t_par, t_ser = [], []
-        for k, kind in enumerate(("parallel", "serial", "serial", "parallel")[: 2 * a.rounds]):
-            extra = ["--workers", str(a.workers)] if kind == "parallel" else []
-            (t_par if kind == "parallel" else t_ser).append(_run(files, folder / f"{kind}{k}", extra))
-        outs = [d for d in folder.iterdir() if d.is_dir()]
-        same = all(
-            json.loads((d / f.stem / "calibration.json").read_text())["columns"]
-            == json.loads((outs[0] / f.stem / "calibration.json").read_text())["columns"]
-            for f in files for d in outs)
-        runs = f"parallel runs {[round(t, 1) for t in t_par]} s, serial runs {[round(t, 1) for t in t_ser]} s"
-        t_par, t_ser = min(t_par), min(t_ser)
-    print(f"{a.files} files x {len(XSENS_COLUMNS)} axes x {a.n:,} samples, candidates {CANDIDATES}")
-    print(runs)
-    print(f"serial run (best)                  {t_ser:9.1f} s")
-    print(f"dask LocalCluster, {a.workers} workers (best) {t_par:9.1f} s")
-    print(f"speed-up serial / parallel         {t_ser / t_par:9.2f}")
-    print(f"identical results                  {same}")
+        runs: dict[str, list[dict]] = defaultdict(list)
+        for k, kind in enumerate(order):
+            runs[kind].append(_run(files, folder / f"{kind}{k}", extra[kind]))
+        same = _same_results(files, [r["out"] for rs in runs.values() for r in rs])
+    best = {kind: min(rs, key=lambda r: r["wall"]) for kind, rs in runs.items()}
+    par, ser = best["parallel"], best["serial"]
+    load = Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else "?"
+    print(f"{a.files} files x {len(XSENS_COLUMNS)} axes x {a.n:,} samples, candidates {CANDIDATES}; "
+          f"load average at the end {' '.join(load)}")
+    print("every run (wall s / CPU s of its process tree):")
+    for kind, rs in runs.items():
+        print(f"  {kind:10s} " + ", ".join(f"{r['wall']:.1f} / {r['cpu']:.1f}" for r in rs))
+    print(f"serial run (best)                    {ser['wall']:8.1f} s")
+    if "one-worker" in best:
+        print(f"dask LocalCluster, 1 worker (best)   {best['one-worker']['wall']:8.1f} s")
+    print(f"dask LocalCluster, {a.workers} workers (best)  {par['wall']:8.1f} s")
+    print(f"speed-up serial / parallel           {ser['wall'] / par['wall']:8.2f}")
+    if "one-worker" in best:
+        print(f"speed-up one-worker / parallel       {best['one-worker']['wall'] / par['wall']:8.2f}")
+    print(f"identical results                    {same}")
+    ser_cpu = sum(t["cpu"] for t in ser["tasks"])
+    eq17 = sum(t["eq17_cpu"] for t in ser["tasks"]) / max(sum(t["eq17_wall"] for t in ser["tasks"]), 1e-9)
+    print(f"\nserial run, inside its one process: tasks' CPU {ser_cpu:.1f} s over {ser['wall']:.1f} s wall "
+          f"({ser_cpu / ser['wall']:.2f} cores); its eq. 17 stage uses {eq17:.2f} cores"
+          + (" (the FFTs on two threads: the serial path uses both cores for part of a file)"
+             if eq17 > 1.1 else ""))
+    par_cpu = sum(t["cpu"] for t in par["tasks"])
+    print(f"parallel run: tasks' CPU {par_cpu:.1f} s over {par['wall']:.1f} s wall = "
+          f"{par_cpu / par['wall']:.2f} cores busy (of {a.workers}); CPU per file "
+          f"{par_cpu / a.files:.2f} s against {ser_cpu / a.files:.2f} s serially; "
+          f"CPU-time scaling {a.workers} x serial CPU / parallel CPU = "
+          f"{a.workers * ser_cpu / par_cpu:.2f}")
+    print(f"results shipped back: {sum(t['result_bytes'] for t in par['tasks']) / 1e3:.0f} kB "
+          f"in all; threads per worker process {sorted({int(t['threads']) for t in par['tasks']})}")
+    for kind in best:
+        print(f"\n{kind} run (best): stages summed over its tasks, timed inside the workers")
+        print("\n".join(_stage_table(best[kind]["tasks"])))
+        print(f"{kind} run: per worker process (s from the command's start)")
+        print("\n".join(_worker_table(best[kind])))
 
 
 if __name__ == "__main__":

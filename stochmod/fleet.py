@@ -5,9 +5,17 @@ worker processes) or ``--scheduler tcp://host:8786`` (an existing cluster, any n
 machines) runs the single-file calibration of every file as one task, writing ``OUT/<file
 stem>/`` each, then the fleet table ``OUT/fleet.csv``.  Without ``--workers`` or
 ``--scheduler`` the files are calibrated one after the other.  Each file's selection runs its
-fits in the task's own thread (the task is the unit of parallelism), and every fit is seeded
-from ``--seed`` and the candidate only, so a fleet run gives exactly the results of a serial
-run, whatever the cluster.
+fits in the task's own thread (the task is the unit of parallelism: no process pool inside a
+task, whatever ``--jobs`` says), and every fit is seeded from ``--seed`` and the candidate
+only, so a fleet run gives exactly the results of a serial run, whatever the cluster.
+
+A task in a worker runs on one core: the local cluster's workers have one thread each, BLAS
+pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one thread
+(:func:`single_threaded`), dask's sampling profiler off, and glibc's default ``malloc``
+(dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh ``mmap``: twice the page
+faults in the eq. 17 covariance; see docs/fleet.md).  Every task records where its time went
+(:class:`TaskTiming`: wall and CPU time per stage, measured inside the worker), written to
+``OUT/fleet_tasks.csv``.
 
 The fleet table compares the units on what every model has, whatever its structure: the
 datasheet summary of each axis (white-noise density, bias instability, random walk; see
@@ -29,7 +37,14 @@ import concurrent.futures
 import contextlib
 import copy
 import csv
+import functools
+import importlib
 import math
+import os
+import pickle
+import socket
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -41,13 +56,28 @@ from stochmod.errors import InputError
 from stochmod.reporting import format_table
 
 __all__ = ["OUTLIER_Z", "MIN_UNITS", "FleetRow", "fleet_rows", "robust_z", "write_fleet_csv",
-           "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne"]
+           "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne",
+           "TaskTiming", "STAGES", "single_threaded", "write_task_csv"]
 
 #: |robust z| above which a unit is an outlier on a quantity.
 OUTLIER_Z = 3.5
 #: Fewest units for which outliers are flagged.
 MIN_UNITS = 4
 _MAD_TO_SD = 1.4826
+#: Stages of a unit's calibration timed inside its task: the function that
+#: :class:`SerialExecutor` runs (stochmod.fit.selection's work items, calibrate's figures),
+#: or a stage opened with :meth:`SerialExecutor.stage`; the rest of the task is ``other``
+#: (the report: datasheet and Allan reading, JSON, exports).
+STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": "fits",
+          "_figure": "figures"}
+#: The eq. 17 covariance's module-level default of FFT threads (stochmod.signal.wv_covariance),
+#: set to one in a fleet worker.
+_FFT_THREADS = ("stochmod.signal.wv_covariance", "FFT_WORKERS")
+#: dask configuration of the local cluster's workers: no sampling profiler (a thread that
+#: walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
+#: module docstring).
+_LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
+                         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 @attrs.frozen
@@ -119,20 +149,144 @@ def unit_folders(files: Sequence[str], out: Path) -> dict[str, Path]:
     return folders
 
 
-#: The single-file calibration of one unit: its argument namespace in, its report dict out.
-CalibrateOne = Callable[[argparse.Namespace], dict[str, Any]]
+#: The single-file calibration of one unit: its argument namespace and the executor of its
+#: work items (a :class:`SerialExecutor`: the file is the parallel unit) in, its report out.
+CalibrateOne = Callable[[argparse.Namespace, concurrent.futures.Executor], dict[str, Any]]
 
 
 class SerialExecutor(concurrent.futures.Executor):
-    """Runs each submitted call at once in the caller's thread (the task is the parallel unit)."""
+    """Runs each submitted call at once in the caller's thread (the task is the parallel unit).
+
+    Parameters
+    ----------
+    stages : dict, optional
+        When given, the wall and CPU time (s) of every call are added to
+        ``stages[name] = [wall, cpu]``, `name` from :data:`STAGES` (else the function's own
+        name). CPU is the process's (``time.process_time``: the call's helper threads count).
+    """
+
+    def __init__(self, stages: dict[str, list[float]] | None = None) -> None:
+        self.stages = stages
+
+    @contextlib.contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        """Time the enclosed code as stage `name` (nothing when not timing)."""
+        if self.stages is None:
+            yield
+            return
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            total = self.stages.setdefault(STAGES.get(name, name), [0.0, 0.0])
+            total[0] += time.perf_counter() - wall
+            total[1] += time.process_time() - cpu
 
     def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
         future: concurrent.futures.Future = concurrent.futures.Future()
         try:
-            future.set_result(fn(*args, **kwargs))
+            with self.stage(getattr(fn, "__name__", "call")):
+                future.set_result(fn(*args, **kwargs))
         except BaseException as exc:  # handed to the caller through the future
             future.set_exception(exc)
         return future
+
+
+@attrs.frozen
+class TaskTiming:
+    """Where one unit's task spent its time, measured inside the process that ran it.
+
+    Times in s; `start` and `end` are wall-clock times (s since the epoch) of that machine.
+    `cpu` is the process's CPU time during the task (every thread: the FFT helpers, and in a
+    dask worker its own threads), `thread_cpu` the task thread's alone. `stages` maps a
+    stage of :data:`STAGES` (and ``other``, the rest) to its (wall, cpu). `page_faults`
+    counts the process's minor faults during the task (fresh memory pages), `threads` its
+    OS threads at the end, `result_bytes` the pickled report returned to the client.
+    """
+
+    unit_name: str
+    host: str
+    pid: int
+    start: float
+    end: float
+    wall: float
+    cpu: float
+    thread_cpu: float
+    page_faults: int
+    threads: int
+    result_bytes: int
+    stages: dict[str, tuple[float, float]]
+
+    def row(self) -> dict[str, Any]:
+        """Flat CSV row: the fields, then each stage's ``<stage>_wall`` and ``<stage>_cpu``."""
+        row = attrs.asdict(self, filter=lambda a, _: a.name != "stages")
+        for name in [*dict.fromkeys(STAGES.values()), "other"]:
+            wall, cpu = self.stages.get(name, (0.0, 0.0))
+            row[f"{name}_wall"], row[f"{name}_cpu"] = wall, cpu
+        return row
+
+
+def _minor_faults() -> int:
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on Windows
+        return 0
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_minflt)
+
+
+def _os_threads() -> int:
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:  # pragma: no cover - not Linux
+        return threading.active_count()
+
+
+def single_threaded() -> contextlib.AbstractContextManager:
+    """Make this process's numerical libraries run a task on one thread; returns a context
+    manager for the task's scipy.fft calls that do not name their thread count.
+
+    Sets the eq. 17 covariance's module-level default of FFT threads (where
+    :mod:`stochmod.signal.wv_covariance` has one) to 1. BLAS cannot be pinned at run time
+    without threadpoolctl: dask's worker environment does it (``OPENBLAS_NUM_THREADS=1``
+    ...) before the worker process starts.
+    """
+    module, name = _FFT_THREADS
+    mod = importlib.import_module(module)
+    if hasattr(mod, name):
+        setattr(mod, name, 1)
+    from scipy import fft
+
+    return fft.set_workers(1)
+
+
+def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: bool
+              ) -> tuple[dict[str, Any], TaskTiming]:
+    """One fleet task: the unit's calibration with its stages timed (module level: dask ships
+    it by reference); in a worker on one thread (:func:`single_threaded`)."""
+    stages: dict[str, list[float]] = {}
+    pool = SerialExecutor(stages)
+    start, wall, cpu = time.time(), time.perf_counter(), time.process_time()
+    thread_cpu, faults = time.thread_time(), _minor_faults()
+    with single_threaded() if in_worker else contextlib.nullcontext():
+        report = calibrate_one(args, pool)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    stages["other"] = [wall - sum(w for w, _ in stages.values()),
+                       cpu - sum(c for _, c in stages.values())]
+    timing = TaskTiming(Path(args.out).name, socket.gethostname(), os.getpid(), start, time.time(),
+                        wall, cpu, time.thread_time() - thread_cpu, _minor_faults() - faults,
+                        _os_threads(), len(pickle.dumps(report)),
+                        {k: (float(w), float(c)) for k, (w, c) in stages.items()})
+    return report, timing
+
+
+def write_task_csv(path: Path, timings: Sequence[TaskTiming]) -> Path:
+    """Write the tasks' timings (one line per unit; see :meth:`TaskTiming.row`)."""
+    rows = [t.row() for t in timings]
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["unit_name"])
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
 
 
 @contextlib.contextmanager
@@ -145,21 +299,27 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         with Client(scheduler) as client:
             yield client
     else:
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
+        import dask
+
+        with dask.config.set(_LOCAL_CLUSTER_CONFIG), \
+                LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                             dashboard_address=None) as cluster, Client(cluster) as client:
             yield client
 
 
 def calibrate_files(tasks: Sequence[argparse.Namespace], calibrate_one: CalibrateOne,
                     workers: int | None = None, scheduler: str | None = None
-                    ) -> list[dict[str, Any]]:
+                    ) -> tuple[list[dict[str, Any]], list[TaskTiming]]:
     """Run `calibrate_one` (the single-file calibration, a module-level function so that dask
-    can ship it) on each task: serially, or one dask task per file."""
+    can ship it) on each task: serially, or one dask task per file; the reports and the
+    tasks' timings."""
     if workers is None and scheduler is None:
-        return [calibrate_one(t) for t in tasks]
-    with _client(workers, scheduler) as client:
-        futures = client.map(calibrate_one, list(tasks), pure=False)
-        return client.gather(futures)
+        done = [_run_unit(calibrate_one, t, False) for t in tasks]
+    else:
+        with _client(workers, scheduler) as client:
+            task = functools.partial(_run_unit, calibrate_one, in_worker=True)
+            done = client.gather(client.map(task, list(tasks), pure=False))
+    return [report for report, _ in done], [timing for _, timing in done]
 
 
 def run_fleet(args: argparse.Namespace, calibrate_one: CalibrateOne) -> int:
@@ -179,12 +339,13 @@ def run_fleet(args: argparse.Namespace, calibrate_one: CalibrateOne) -> int:
         task = copy.copy(args)
         task.file, task.more_files, task.out = f, [], str(folder)
         tasks.append(task)
-    reports = calibrate_files(tasks, calibrate_one, args.workers, args.scheduler)
+    reports, timings = calibrate_files(tasks, calibrate_one, args.workers, args.scheduler)
     out.mkdir(parents=True, exist_ok=True)
     rows = fleet_rows(dict(zip(folders, reports)))
     path = write_fleet_csv(out / "fleet.csv", rows)
+    times = write_task_csv(out / "fleet_tasks.csv", timings)
     print(_fleet_summary(rows, len(files)))
-    print(f"\nwrote {', '.join(str(p) for p in folders.values())} and {path}")
+    print(f"\nwrote {', '.join(str(p) for p in folders.values())}, {path} and {times}")
     return 0
 
 

@@ -262,10 +262,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def calibrate_unit(args: argparse.Namespace) -> dict[str, Any]:
+def calibrate_unit(args: argparse.Namespace, executor: SerialExecutor) -> dict[str, Any]:
     """One unit of a fleet: the quiet single-file calibration with its fits run in the calling
-    worker (the file is the parallel unit); its report dict."""
-    return calibrate_file(args, executor=SerialExecutor(), quiet=True)
+    worker by `executor` (the file is the parallel unit); its report dict."""
+    return calibrate_file(args, executor=executor, quiet=True)
 
 
 def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool = False
@@ -274,7 +274,8 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
     `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
     worker processes)."""
-    segments, freq = _input(args)
+    with executor.stage("read") if isinstance(executor, SerialExecutor) else contextlib.nullcontext():
+        segments, freq = _input(args)
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     dt = 1.0 / freq if args.dt is None else args.dt

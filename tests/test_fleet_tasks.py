@@ -1,0 +1,102 @@
+"""Fleet tasks: each unit's stages timed inside its worker (``OUT/fleet_tasks.csv``), and the
+local cluster's workers set up to run one task on one core."""
+
+from __future__ import annotations
+
+import csv
+import os
+import time
+
+import numpy as np
+import pytest
+
+import stochmod
+from stochmod.cli import main
+from stochmod.fleet import STAGES, SerialExecutor, _client, single_threaded
+
+FS = 50.0
+
+
+def _sleep(seconds: float) -> float:
+    time.sleep(seconds)
+    return seconds
+
+
+def _covariance(_: None) -> None:  # named like selection's eq. 17 work item
+    raise ValueError("bad item")
+
+
+def test_serial_executor_times_each_stage_and_keeps_results_and_errors():
+    stages: dict[str, list[float]] = {}
+    pool = SerialExecutor(stages)
+    assert pool.submit(_sleep, 0.05).result() == 0.05
+    assert pool.submit(_sleep, 0.05).result() == 0.05
+    with pytest.raises(ValueError, match="bad item"):
+        pool.submit(_covariance, None).result()
+    with pool.stage("read"):
+        time.sleep(0.02)
+    assert stages.keys() == {"_sleep", "eq17", "read"}  # STAGES names the known work items
+    wall, cpu = stages["_sleep"]
+    assert 0.1 <= wall < 5.0  # two sleeps of 0.05 s
+    assert 0.0 <= cpu < 0.05  # a sleep uses no CPU
+    assert stages["read"][0] >= 0.02
+    # without a stage dict nothing is recorded, the results are the same
+    assert SerialExecutor().submit(_sleep, 0.0).result() == 0.0
+
+
+def test_single_threaded_sets_the_fft_default_to_one(monkeypatch):
+    from scipy import fft
+
+    import stochmod.signal.wv_covariance as wc
+
+    monkeypatch.setattr(wc, "FFT_WORKERS", 2, raising=False)
+    with single_threaded():
+        assert fft.get_workers() == 1
+    assert wc.FFT_WORKERS == 1
+
+
+def _worker_setup() -> dict:
+    import dask
+
+    return {"pid": os.getpid(), "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+            "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "profile": dask.config.get("distributed.worker.profile.enabled")}
+
+
+def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim():
+    pytest.importorskip("distributed")
+    with _client(1, None) as client:
+        nthreads = client.nthreads()
+        (setup,) = client.run(_worker_setup).values()
+    assert list(nthreads.values()) == [1]
+    assert setup == {"pid": setup["pid"], "malloc": None, "blas": "1", "profile": False}
+    assert setup["pid"] != os.getpid()
+
+
+@pytest.mark.parametrize("workers", [[], ["--workers", "2"]])
+def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
+    if workers:
+        pytest.importorskip("distributed")
+    model = stochmod.model_from_spec("WN(sigma2=1e-4)+RW(sigma2=1e-10)", FS)
+    files = []
+    for i in range(3):
+        files.append(tmp_path / f"u{i}.npz")
+        np.savez(files[-1], gyro_x=model.simulate(2**12, rng=i), freq=FS)
+    out = tmp_path / "out"
+    assert main(["calibrate", *map(str, files), "--candidates", "WN", "WN+RW", "--no-plots",
+                 "--out", str(out), *workers]) == 0
+    capsys.readouterr()
+    with open(out / "fleet_tasks.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["unit_name"] for r in rows] == ["u0", "u1", "u2"]
+    stages = [*dict.fromkeys(STAGES.values()), "other"]
+    for r in rows:
+        wall = float(r["wall"])
+        # the stages partition the task's wall time (other: the report and its outputs)
+        assert sum(float(r[f"{s}_wall"]) for s in stages) == pytest.approx(wall, rel=1e-9)
+        assert float(r["fits_wall"]) > 0 and float(r["wv_wall"]) > 0 and float(r["eq17_wall"]) > 0
+        assert float(r["figures_wall"]) == 0.0  # --no-plots
+        assert float(r["start"]) <= float(r["end"]) and float(r["end"]) - float(r["start"]) >= wall * 0.99
+        assert int(r["result_bytes"]) > 1000 and int(r["threads"]) >= 1
+    pids = {int(r["pid"]) for r in rows}
+    assert (os.getpid() in pids) is (not workers)  # serially in this process, else in workers
