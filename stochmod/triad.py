@@ -33,6 +33,7 @@ from typing import Any
 import attrs
 
 from stochmod.datasheet import SENSORS, signal_unit, si_unit_of
+from stochmod.equivalence import WHITE_NOISE, correlation_time, equivalent_term
 from stochmod.errors import InputError
 from stochmod.fit.gmwm import GMWMResult
 from stochmod.fit.selection import SelectionResult, model_terms
@@ -151,16 +152,10 @@ def equivalences(fit: GMWMResult, column: str = "", unit: str | None = None) -> 
     record = fit.empirical.n / freq
     out = []
     for label, proc in zip(fit.model.labels, fit.model.processes):
-        phys = proc.physical(freq)
-        kinds = {name: parse_unit(si_unit_of(pv.unit, unit)).kind for name, pv in phys.items()}
-        times = [phys[n].value for n, k in kinds.items() if k == "time"]
-        if len(times) != 1 or not ({"rate", "acceleration"} & set(kinds.values())):
-            continue
-        tc = float(times[0])
-        if tc < 1.0 / freq:
-            out.append(Equivalence(column, label, tc, "white noise"))
-        elif tc > record:
-            out.append(Equivalence(column, label, tc, "random walk"))
+        tc = correlation_time(proc, freq, unit)
+        term = None if tc is None else equivalent_term(tc, freq, record)
+        if term is not None:
+            out.append(Equivalence(column, label, tc, term))
     return out
 
 
@@ -238,7 +233,7 @@ def triad_select(results: Sequence[SelectionResult], units: Mapping[str, str] | 
     replaced = None
     candidates = {m: results[0].fits[m].model for m in names}
     for e in eqs:
-        kinds = _WHITE_KINDS if e.equivalent == "white noise" else _WALK_KINDS
+        kinds = _WHITE_KINDS if e.equivalent == WHITE_NOISE else _WALK_KINDS
         for alt in _simpler(results[0].fits[best].model, e.component, kinds, candidates, freq, unit):
             tie = max(optimism[best] - optimism[alt], optimism[best] / max(n_params[best], 1))
             if identified[alt] >= min(identified[best], majority) and summed[alt] - summed[best] <= tie:

@@ -39,6 +39,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("fit", ("stochmod.fit",)),
     # the classical pipelines that end in models, navigation, combiners, readers
     ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination",
+                      "stochmod.equivalence",
                       "stochmod.datasheet", "stochmod.exports", "stochmod.triad", "stochmod.report")),
     ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
              "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant",

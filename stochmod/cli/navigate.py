@@ -13,7 +13,7 @@ from stochmod.errors import InputError
 from stochmod.model import Model
 from stochmod.nav.alignment import InitialState
 from stochmod.nav.filter import LooselyCoupledFilter, NavResult
-from stochmod.nav.logs import read_calibration, read_gnss_csv, read_imu_csv
+from stochmod.nav.logs import calibration_record, read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
 
 __all__ = ["register", "run", "default_models", "TRAJECTORY_COLUMNS"]
@@ -215,9 +215,11 @@ def run(args: argparse.Namespace) -> int:
     outages = [(float(s), float(d)) for s, d in args.outage]
     if any(d <= 0 for _, d in outages):
         raise InputError(f"--outage DURATION must be positive, got {outages}")
+    # a fitted component correlated beyond the calibration record is the random walk it is there
+    record = None if args.calibration is None else calibration_record(args.calibration)
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
                                gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
-                               lever_arm_sd=lever_arm_sd)
+                               lever_arm_sd=lever_arm_sd, record=record)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages)
     out = Path(args.out)

@@ -37,6 +37,7 @@ is zero again.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 
 import attrs
@@ -45,6 +46,8 @@ from numpy.typing import ArrayLike
 from scipy.stats import chi2
 
 from stochmod._fields import array_field
+from stochmod.datasheet import signal_unit
+from stochmod.equivalence import RANDOM_WALK, correlation_time, equivalent_term
 from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.model import Model, augment_axes
 from stochmod.nav import earth, frames
@@ -63,9 +66,51 @@ from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
-__all__ = ["LooselyCoupledFilter", "NavResult", "NAV_STATES"]
+__all__ = ["LooselyCoupledFilter", "NavResult", "NAV_STATES", "RandomWalkEquivalent"]
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
+
+
+@attrs.frozen
+class RandomWalkEquivalent:
+    """A correlated sensor-error component whose correlation time exceeds the record the model
+    was fitted on, augmented as the random walk it is equivalent to over that record
+    (:mod:`stochmod.equivalence`).
+
+    Attributes
+    ----------
+    state : str
+        Filter state (``axis.label.state``).
+    tc : float
+        Fitted correlation time, s.
+    q : float
+        Random-walk intensity ``2 sigma^2 / Tc`` (the component's driving noise; signal unit
+        squared per second).
+    record : float
+        Record length T, s; the state starts with variance ``q T`` (:attr:`p0`).
+    """
+
+    state: str
+    tc: float
+    q: float
+    record: float
+
+    @property
+    def p0(self) -> float:
+        """Initial variance ``q T``: the spread the walk reaches over the record."""
+        return self.q * self.record
+
+    @property
+    def stationary_sd(self) -> float:
+        """The fitted stationary sigma, ``sqrt(q Tc / 2)`` (not identified by the record)."""
+        return math.sqrt(self.q * self.tc / 2.0)
+
+    def describe(self) -> str:
+        """One line for reports."""
+        return (f"{self.state}: correlation time {self.tc:.3g} s beyond the {self.record:g} s "
+                f"record, augmented as a random walk q = 2 sigma^2/Tc = {self.q:.3g} per s with "
+                f"initial sd sqrt(q T) = {math.sqrt(self.p0):.3g} (not the stationary sigma "
+                f"{self.stationary_sd:.3g})")
 
 
 @attrs.frozen
@@ -99,6 +144,9 @@ class NavResult(TrajectoryArrays):
         Updates rejected by the innovation gate, per kind.
     nees : ndarray (k,) or None
         NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
+    random_walks : tuple of RandomWalkEquivalent
+        Correlated components whose correlation time exceeds the filter's ``record``, augmented
+        as the random walks they are equivalent to over it (empty without ``record``).
     """
 
     sd_position: np.ndarray = array_field()
@@ -114,6 +162,7 @@ class NavResult(TrajectoryArrays):
     rejected: dict = attrs.field(factory=dict)
     nees: np.ndarray | None = attrs.field(default=None, eq=False)
     gate: float | None = None
+    random_walks: tuple = ()
 
     @property
     def lever_arm(self) -> np.ndarray | None:
@@ -142,6 +191,7 @@ class NavResult(TrajectoryArrays):
                               title=f"Loosely-coupled filter: {len(self.state_names)} states, "
                                     f"{self.time.size} IMU epochs, {self.epoch_time.size} filter "
                                     f"epochs, gate {self.gate}")]
+        lines += [r.describe() for r in self.random_walks]
         if self.nees is not None:
             lo, hi = chi2.ppf([0.025, 0.975], 9)
             lines.append(f"mean NEES (9 nav states) {self.mean_nees:.3g}; single-epoch 95% band "
@@ -182,7 +232,8 @@ class _Sensors:
     """Sensor-error states: the stacked per-axis augmentation plus optional turn-on biases."""
 
     def __init__(self, models: dict[str, Model], dt: float, gyro_bias_sd: float,
-                 accel_bias_sd: float, lever_arm_sd: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+                 accel_bias_sd: float, lever_arm_sd: Sequence[float] = (0.0, 0.0, 0.0),
+                 record: float | None = None) -> None:
         try:
             aug = augment_axes(models, dt)
         except InputError:
@@ -206,6 +257,10 @@ class _Sensors:
         F = None if cont is None else cont.F
         GQG = None if cont is None else cont.G @ cont.Qc @ cont.G.T
         white_var = aug.white_var[order].astype(float)
+        self.random_walks: tuple[RandomWalkEquivalent, ...] = ()
+        if record is not None:
+            F, Phi, Q, P0, self.random_walks = _as_random_walks(
+                models, names, record, dt, F, GQG, Phi, Q, P0)
         fast = np.zeros(0, int) if F is None else _sub_sample_states(F, GQG, dt)
         if fast.size:
             # a process decorrelated within one sample is, for the samples (and the fit that
@@ -258,6 +313,41 @@ class _Sensors:
         if m not in self._cache:
             self._cache[m] = compose_steps(self.Phi1, self.Q1, m)
         return self._cache[m]
+
+
+def _as_random_walks(models: dict[str, Model], names: list[str], record: float, dt: float,
+                     F: np.ndarray | None, GQG: np.ndarray | None, Phi: np.ndarray,
+                     Q: np.ndarray, P0: np.ndarray) -> tuple:
+    """Components beyond `record` (s) as the random walks they are over it: their one state gets
+    ``F = 0``, ``Phi = 1``, ``Q = q dt`` and ``P0 = q record`` with ``q = 2 sigma^2 / Tc`` (the
+    state's continuous driving noise; from a discrete-only block, its one-step ``Q / dt``).
+    Returns ``(F, Phi, Q, P0, walks)`` (copies when changed)."""
+    walks, kept = [], []
+    for axis, model in models.items():
+        freq, unit = float(model.freq), signal_unit(axis)
+        for label, proc in zip(model.labels, model.processes):
+            tc = correlation_time(proc, freq, unit)
+            if tc is None or equivalent_term(tc, freq, record) != RANDOM_WALK:
+                continue
+            states = [i for i, n in enumerate(names) if n.startswith(f"{axis}.{label}.")]
+            (walks if len(states) == 1 else kept).append((axis, label, tc, states))
+    if kept:
+        warnings.warn("correlation time beyond the record, but not a one-state component, so "
+                      "kept as fitted: " + ", ".join(f"{a}.{lab} (Tc {tc:.3g} s)"
+                                                     for a, lab, tc, _ in kept), stacklevel=4)
+    if not walks:
+        return F, Phi, Q, P0, ()
+    F = None if F is None else F.copy()
+    Phi, Q, P0 = Phi.copy(), Q.copy(), P0.copy()
+    out = []
+    for axis, label, tc, (i,) in walks:
+        q = float(GQG[i, i]) if F is not None else float(Q[i, i]) / dt
+        if F is not None:
+            F[i, i] = 0.0
+        Phi[i, i], Q[i, i], P0[i, i] = 1.0, q * dt, q * record
+        out.append(RandomWalkEquivalent(names[i], tc, q, float(record)))
+    warnings.warn("; ".join(r.describe() for r in out), stacklevel=4)
+    return F, Phi, Q, P0, tuple(out)
 
 
 #: A decoupled scalar state whose pole exceeds this many times the IMU rate (correlation time
@@ -375,14 +465,24 @@ class LooselyCoupledFilter:
         constant states estimated from the GNSS updates (``NavResult.lever_arm``); 0: the lever
         arm is taken as exact. An antenna offset that the filter ignores is read as attitude and
         accelerometer-bias errors at every turn (see docs/navigation.md, "Real drive").
+    record : float, optional
+        Length (s) of the record the models were fitted on. A correlated component whose
+        correlation time exceeds it (:func:`stochmod.equivalence.equivalent_term`) is
+        augmented as the random walk it is equivalent to over the record, ``q = 2 sigma^2 /
+        Tc``, with initial variance ``q * record`` instead of its unidentified stationary
+        ``sigma^2``; a warning and ``NavResult.random_walks`` report each one. None (default):
+        the models are taken as they are.
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
                  lever_arm: ArrayLike = (0.0, 0.0, 0.0), gyro_bias_sd: float = 0.0,
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
                  gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
-                 lever_arm_sd: object = 0.0) -> None:
+                 lever_arm_sd: object = 0.0, record: float | None = None) -> None:
         self.models = _axis_models(gyro_models, accel_models)
+        if record is not None and not (record > 0 and math.isfinite(record)):
+            raise InputError(f"record must be a positive number of seconds, got {record!r}")
+        self.record = None if record is None else float(record)
         if not (dt_filter > 0 and math.isfinite(dt_filter)):
             raise InputError(f"dt_filter must be a positive number of seconds, got {dt_filter!r}")
         self.dt_filter = float(dt_filter)
@@ -409,7 +509,8 @@ class LooselyCoupledFilter:
     # ------------------------------------------------------------------ set-up
     def state_names(self, dt_imu: float) -> tuple[str, ...]:
         """All state names for IMU step `dt_imu`."""
-        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd, self.lever_arm_sd)
+        s = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd, self.lever_arm_sd,
+                     self.record)
         return NAV_STATES + s.names
 
     def _events(self, gnss: GnssData | None, heading: object, zero_velocity: object,
@@ -493,7 +594,7 @@ class LooselyCoupledFilter:
             t, h, dth, dv, con, scu = t[1:], h[1:], dth[1:], dv[1:], con[1:], scu[1:]
         dt_imu = float(np.median(h))
         sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd,
-                        self.lever_arm_sd)
+                        self.lever_arm_sd, self.record)
         events = self._events(gnss, heading, zero_velocity, outages, float(t_all[0]), t[0])
         return _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth).execute()
 
@@ -745,7 +846,7 @@ class _Run:
             self.t, np.degrees(arr[:, 0]), np.degrees(arr[:, 1]), arr[:, 2], arr[:, 3:6],
             frames.quat_to_rph(arr[:, 6:10]), sd[:, 0:3], sd[:, 3:6], np.degrees(sd[:, 6:9]),
             et, NAV_STATES + self.sens.names, esd, ess, eer, pack(self.innov), pack(self.nis),
-            dict(self.rejected), nees, self.flt.gate)
+            dict(self.rejected), nees, self.flt.gate, self.sens.random_walks)
 
 
 def nav_errors(truth: Trajectory, rows: np.ndarray, times: np.ndarray) -> np.ndarray:

@@ -33,7 +33,8 @@ from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
 from stochmod.registry import readers
 
-__all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "IMU_COLUMNS", "GNSS_COLUMNS"]
+__all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "calibration_record",
+           "IMU_COLUMNS", "GNSS_COLUMNS"]
 
 IMU_COLUMNS: dict[str, tuple[str, ...]] = {
     "rate": ("time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
@@ -224,12 +225,7 @@ def read_calibration(path: str | Path) -> dict[str, Model]:
         built (the message names the axis).
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"no such calibration file: {path}")
-    try:
-        data = json.loads(path.read_text())
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path} is not a JSON file: {exc}") from None
+    data = _calibration_json(path)
     columns = data.get("columns") if isinstance(data, dict) else None
     if not isinstance(columns, dict):
         raise InputError(f"{path} has no 'columns' object; write it with `stochmod calibrate`")
@@ -258,3 +254,34 @@ def read_calibration(path: str | Path) -> dict[str, Model]:
             raise InputError(f"{path}: the model of {axis!r} has no sampling frequency ('freq')")
         models[axis] = model
     return models
+
+
+def _calibration_json(path: Path) -> object:
+    if not path.is_file():
+        raise InputError(f"no such calibration file: {path}")
+    try:
+        return json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path} is not a JSON file: {exc}") from None
+
+
+def calibration_record(path: str | Path) -> float | None:
+    """Length (s) of the longest single record a ``calibration.json`` was fitted on: its ``n``
+    samples at ``freq``, or the longest of its ``segments`` (``--split-gaps``) or
+    ``replicates`` (``--pooled``), each of which resolves correlation times only up to its own
+    length. None when the file does not say (an older calibration)."""
+    path = Path(path)
+    data = _calibration_json(path)
+    if not isinstance(data, dict):
+        return None
+    sizes = data.get("n")
+    if isinstance(data.get("segments"), list):
+        sizes = [seg.get("n") for seg in data["segments"] if isinstance(seg, dict)]
+    elif isinstance(data.get("replicates"), dict):
+        sizes = data["replicates"].get("n")
+    sizes = sizes if isinstance(sizes, list) else [sizes]
+    sizes = [n for n in sizes if isinstance(n, (int, float)) and n > 0]
+    freq = data.get("freq")
+    if not sizes or not isinstance(freq, (int, float)) or not freq > 0:
+        return None
+    return float(max(sizes)) / float(freq)

@@ -200,6 +200,7 @@ def outage_study(
     dt_filter: float = 0.1,
     progress: Callable[[int, str], None] | None = None,
     workers: int = 1,
+    record: float | None = None,
 ) -> OutageStudy:
     """Run an outage study.
 
@@ -240,6 +241,10 @@ def outage_study(
     workers : int
         Number of processes the runs are spread over (1: all in this process). Each run draws
         from its own stream ``(seed, r)``, so the result is the same for any number of workers.
+    record : float, optional
+        Length (s) of the record the filters' models were fitted on: correlated components
+        beyond it enter every filter as the random walks they are over it
+        (:class:`~stochmod.nav.LooselyCoupledFilter`, ``record``). None: models as given.
 
     Returns
     -------
@@ -260,7 +265,8 @@ def outage_study(
     windows = [(t0 + s, t0 + s + d) for s, d in outages]
     workers = check_positive_int(workers, name="workers")
     setup = _Setup(traj, ideal_imu(traj, "increment"), specs, {a: truth[a] for a in AXES},
-                   g_sd, a_sd, tuple(outages), windows, seed, cep, sigma_v, sigma_vel, dt_filter)
+                   g_sd, a_sd, tuple(outages), windows, seed, cep, sigma_v, sigma_vel, dt_filter,
+                   record)
     errors = {n: np.empty((runs, len(outages))) for n in specs}
     nees = {n: np.empty(runs) for n in specs}
     n_states: dict[str, int] = {}
@@ -303,6 +309,7 @@ class _Setup:
     sigma_v: float
     sigma_vel: float | None
     dt_filter: float
+    record: float | None = None
 
     def run(self, r: int, progress: Callable[[int, str], None] | None = None
             ) -> list[tuple[str, np.ndarray, float, int]]:
@@ -324,7 +331,8 @@ class _Setup:
                 progress(r, name)
             flt = LooselyCoupledFilter(gyro, accel, dt_filter=self.dt_filter,
                                        gyro_bias_sd=float(np.max(self.g_sd)),
-                                       accel_bias_sd=float(np.max(self.a_sd)))
+                                       accel_bias_sd=float(np.max(self.a_sd)),
+                                       record=self.record)
             res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss, init=init,
                           outages=self.outages, truth=traj)
             out.append((name, max_outage_errors(traj, res.time, res.lat, res.lon, self.windows),

@@ -15,7 +15,7 @@ from stochmod.cli.navigate import TRAJECTORY_COLUMNS
 from stochmod.nav import Segment, add_sensor_errors, gnss_measurements, ideal_imu
 from stochmod.nav import trajectory_from_profile
 from stochmod.nav.emulate import AXES
-from stochmod.nav.logs import read_calibration
+from stochmod.nav.logs import calibration_record, read_calibration
 from stochmod.nav.study import horizontal_error
 
 FS = 50.0
@@ -154,6 +154,44 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
     bad.write_text("{not json")
     with pytest.raises(stochmod.errors.InputError, match="not a JSON file"):
         read_calibration(bad)
+
+
+def test_navigate_takes_a_gm_beyond_the_calibration_record_as_a_random_walk(
+        recording, tmp_path, capsys) -> None:
+    # a degenerate fit (outages.md): a GM with Tc 7e13 s and sigma 32 rad/s on each gyro of a
+    # 2^19-sample calibration; its stationary sigma as the initial bias sd would wreck the run
+    folder, truth = recording
+    n = 2**19
+    gyro = (GYRO + stochmod.GM.from_correlation_time(7e13, 32.0)).bind(FS)
+    calibration = {"freq": FS, "n": n, "columns": {
+        a: {"model": (gyro if a.startswith("gyro") else ACCEL).to_spec()} for a in AXES}}
+    (tmp_path / "calibration.json").write_text(json.dumps(calibration))
+    out = tmp_path / "out"
+    with pytest.warns(UserWarning, match="random walk"):
+        code = main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                     str(out), "--calibration", str(tmp_path / "calibration.json"), "--init",
+                     _init_text(truth), "--gyro-bias-sd", "1e-4", "--accel-bias-sd", "0.01",
+                     "--no-plots"])
+    assert code == 0
+    report = (out / "report.txt").read_text()
+    record = n / FS
+    assert report.count(f"beyond the {record:g} s record") == 3
+    q = 2 * 32.0**2 / 7e13
+    assert f"initial sd sqrt(q T) = {np.sqrt(q * record):.3g}" in report
+    table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    assert np.median(horizontal_error(truth, table[:, 0], table[:, 1], table[:, 2])) < 2.0
+    capsys.readouterr()
+
+
+def test_calibration_record_is_the_longest_single_record(tmp_path) -> None:
+    path = tmp_path / "c.json"
+    for data, want in [({"freq": 100.0, "n": 1000}, 10.0),
+                       ({"freq": 100.0, "n": 1500, "segments": [{"start": 0.0, "n": 1000},
+                                                                {"start": 20.0, "n": 500}]}, 10.0),
+                       ({"freq": 50.0, "n": 700, "replicates": {"n": [300, 400]}}, 8.0),
+                       ({"freq": 100.0}, None), ({"n": 10}, None), ([1, 2], None)]:
+        path.write_text(json.dumps(data))
+        assert calibration_record(path) == want, data
 
 
 @pytest.mark.slow

@@ -23,7 +23,7 @@ from stochmod.nav import (
     trajectory_from_profile,
 )
 from stochmod.nav.emulate import AXES
-from stochmod.nav.filter import _discretise
+from stochmod.nav.filter import _axis_models, _discretise, _Sensors
 from stochmod.nav.measurements import heading_jacobian
 from stochmod.statespace import ContinuousBlock, van_loan
 
@@ -256,6 +256,56 @@ def test_a_sub_sample_gauss_markov_process_is_the_white_noise_it_is_at_the_imu_r
     slow = (GYRO + GM.from_correlation_time(0.05, sig[0])).bind(FS)
     assert len(LooselyCoupledFilter(slow, ACCEL).state_names(1.0 / FS)) == \
         len(LooselyCoupledFilter(GYRO, ACCEL).state_names(1.0 / FS)) + 3
+
+
+def test_a_gauss_markov_far_beyond_the_record_is_the_random_walk_it_equals_over_it(
+        truth, clean_imu):
+    # closed form: at fixed driving noise q = 2 sigma^2 / Tc the GM's exact step, Phi =
+    # exp(-dt/Tc) and Q = sigma^2 (1 - exp(-2 dt/Tc)), tends to the random walk's (1, q dt)
+    # at the rate dt/Tc as Tc -> infinity
+    dt, q = 0.01, 2 * 32.0**2 / 7e13  # gyro y of the degenerate full-structure fit (outages.md)
+    rw = stochmod.Model((stochmod.RW.from_rrw(math.sqrt(q), FS),), FS).augment(dt)
+    assert rw.Phi[0, 0] == 1.0 and rw.Q[0, 0] == pytest.approx(q * dt, rel=1e-12)
+    for tc in (1e4, 1e7, 1e10, 7e13):
+        gm = stochmod.Model((GM.from_correlation_time(tc, math.sqrt(q * tc / 2)),), FS).augment(dt)
+        assert abs(gm.Phi[0, 0] - rw.Phi[0, 0]) == pytest.approx(dt / tc, rel=1e-3)
+        assert gm.Q[0, 0] / rw.Q[0, 0] - 1 == pytest.approx(-dt / tc, rel=1e-3, abs=1e-14)
+        assert gm.P0[0, 0] == pytest.approx(q * tc / 2)  # stationary: grows without bound
+    # the filter, told the 5243 s record of the fit, augments it as that random walk started
+    # with the spread it reaches over the record, q T, instead of the stationary 32 rad/s
+    record = 2**19 / FS
+    degenerate = (GYRO + GM.from_correlation_time(7e13, 32.0)).bind(FS)
+    with pytest.warns(UserWarning, match=r"gyro_x.GM2.*beyond the 5242.88 s record"):
+        sens = _Sensors(_axis_models(degenerate, ACCEL), dt, 0.0, 0.0, record=record)
+    names = list(sens.names)
+    walks = {r.state: r for r in sens.random_walks}
+    assert sorted(walks) == [f"gyro_{a}.GM2.value" for a in "xyz"]
+    for state, r in walks.items():
+        i = names.index(state)
+        assert r.q == pytest.approx(q, rel=1e-12) and r.tc == pytest.approx(7e13)
+        assert r.stationary_sd == pytest.approx(32.0, rel=1e-12)
+        assert sens.F[i, i] == 0.0 and sens.Phi1[i, i] == 1.0
+        assert sens.Q1[i, i] == pytest.approx(rw.Q[0, 0], rel=1e-12)
+        assert sens.P0[i, i] == pytest.approx(q * record, rel=1e-12)
+    # GMs the record resolves (100 s and 200 s) are untouched: the same block as without it
+    plain = _Sensors(_axis_models(GYRO, ACCEL), dt, 0.0, 0.0)
+    same = _Sensors(_axis_models(GYRO, ACCEL), dt, 0.0, 0.0, record=record)
+    assert same.random_walks == ()
+    for a, b in ((plain.Phi1, same.Phi1), (plain.Q1, same.Q1), (plain.P0, same.P0)):
+        np.testing.assert_array_equal(a, b)
+    # a run reports the substitution; a record shorter than every Tc refuses nothing else
+    imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
+    sel = truth.time <= 5.0
+    with pytest.warns(UserWarning, match="random walk"):
+        res = LooselyCoupledFilter(degenerate, ACCEL, dt_filter=0.1, lever_arm=ARM,
+                                   record=record).run(imu.time[sel], imu.gyro[sel],
+                                                      imu.accel[sel], kind="increment",
+                                                      gnss=gnss, init=init)
+    assert len(res.random_walks) == 3 and "gyro_y.GM2.value" in res.summary()
+    j = list(res.state_names).index("gyro_y.GM2.value")
+    assert res.epoch_sd[0, j] <= math.sqrt(q * record) * (1 + 1e-9)
+    with pytest.raises(InputError, match="record"):
+        LooselyCoupledFilter(GYRO, ACCEL, record=-1.0)
 
 
 def test_heading_jacobian_by_finite_differences():
