@@ -26,10 +26,12 @@ def test_a_coefficient_with_its_maximum_at_zero_is_held_there(garch11) -> None:
     assert big.converged
     assert big.alpha[1] < 1e-200  # held on the boundary, not crept towards it
     assert big.loglikelihood == pytest.approx(small.loglikelihood, abs=1e-6)
-    np.testing.assert_array_less(np.abs(big.params[[0, 1, 3]] - small.params), 1e-3 * small.std_errors)
+    gap = np.abs(big.params[[0, 1, 3]] - small.params)
+    np.testing.assert_array_less(gap, 1e-3 * small.std_errors)
     # Kuhn-Tucker at the boundary: moving mass into alpha_2 from the others lowers the likelihood
     nudged = np.concatenate([big.omega, big.alpha + [0.0, 1e-4], big.beta - 1e-4])
-    assert garch.garch_loglikelihood(garch11, nudged[0], nudged[1:3], nudged[3:]) < big.loglikelihood
+    nudged_ll = garch.garch_loglikelihood(garch11, nudged[0], nudged[1:3], nudged[3:])
+    assert nudged_ll < big.loglikelihood
 
 
 @pytest.mark.parametrize("data, nested, order, warm", [
@@ -39,10 +41,12 @@ def test_warm_starts_reach_the_cold_maxima(garch11, data, nested, order, warm) -
     """From the smaller model's estimate where the added coefficient stays at 0 (alpha_2 on the
     GARCH(1, 1) data), from the grid where it rises (beta_2 there; alpha_2 = 0.12 of the
     GARCH(2, 1) data; its beta_2)."""
-    x = garch11 if data == "garch11" else simulate_garch(40_000, 0.05, [0.03, 0.12], [0.75], seed=34)
+    x = (garch11 if data == "garch11"
+         else simulate_garch(40_000, 0.05, [0.03, 0.12], [0.75], seed=34))
     small = garch.fit_garch(x, *nested)
     scale = float(np.sqrt(np.mean(x * x)))
-    assert (garch._warm_start(garch._Likelihood(x / scale, *order), small, scale) is not None) == warm
+    start = garch._warm_start(garch._Likelihood(x / scale, *order), small, scale)
+    assert (start is not None) == warm
     grown = garch._fit_garch(x, *order, 10, 200, 1e-8, None, small)
     cold = garch.fit_garch(x, *order)
     assert grown.converged

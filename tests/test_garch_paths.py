@@ -52,7 +52,8 @@ def test_compiled_terms_equal_the_numpy_ones(monkeypatch, p, q, theta) -> None:
 @needs_numba
 def test_compiled_pass_refuses_a_non_positive_variance(monkeypatch) -> None:
     x = simulate_garch(2000, 0.05, [0.1], [0.8], seed=1)
-    jit, ref = _both(monkeypatch, lambda: garch._Likelihood(x, 1, 1).value(np.array([-0.1, 0.1, 0.8])))
+    bad = np.array([-0.1, 0.1, 0.8])
+    jit, ref = _both(monkeypatch, lambda: garch._Likelihood(x, 1, 1).value(bad))
     assert jit == ref == -np.inf
     s2, s2_ref = _both(monkeypatch, lambda: garch.garch_variance(x, 1e300, [0.1], [0.8]))
     np.testing.assert_array_equal(s2, s2_ref)  # inf from overflow: the numpy recursion's array

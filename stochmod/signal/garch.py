@@ -19,8 +19,9 @@ With numba (the ``fast`` extra) one compiled pass over the data computes all of 
 The maximum is found by Newton steps on the observed information (Fisher scoring where it is
 not positive definite) with Levenberg damping in unconstrained coordinates (``log omega``;
 ``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from the best point of
-a grid; a coefficient whose maximum is at 0 is held there (see :func:`_boundary`). The data are scaled to unit mean square inside, so IMU-scale inputs
-(variances of 1e-8 u^2 and below) are handled as given; results are reported in the input's unit.
+a grid; a coefficient whose maximum is at 0 is held there (see :func:`_boundary`). The data
+are scaled to unit mean square inside, so IMU-scale inputs (variances of 1e-8 u^2 and below)
+are handled as given; results are reported in the input's unit.
 """
 
 from __future__ import annotations
@@ -354,7 +355,7 @@ def _boundary(theta: np.ndarray, score: np.ndarray) -> tuple[np.ndarray | None, 
     ``(log omega, logits)``.
     """
     share = theta[1:]
-    rising = score[1:] > float(share @ score[1:])  # than the mass-weighted mean (slack's 0 included)
+    rising = score[1:] > float(share @ score[1:])  # the mass-weighted mean, the slack's 0 included
     low = share < _SHARE_FLOOR
     held = low & ~rising
     drop = held & (share > _DROPPED)
@@ -609,7 +610,8 @@ def _fit_garch(x: ArrayLike, p: int, q: int, lags: int, max_iter: int, tol: floa
         # converge on a prefix first (its scoring steps are cheap); the whole record then
         # needs only a few steps from there
         prefix = _Likelihood(y[:_PREFIX_SAMPLES], p, q)
-        theta0 = _raise_shares(_maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0])
+        theta0 = _maximise(prefix, theta0, max_iter, tol * _PREFIX_SAMPLES / y.size)[0]
+        theta0 = _raise_shares(theta0)
     theta, n_iter, converged, (ll, info, s2) = _maximise(lik, theta0, max_iter, tol)
     try:
         cov = np.linalg.inv(info)
@@ -663,7 +665,8 @@ def select_garch(x: ArrayLike, *, max_p: int = 2, max_q: int = 2, lags: int = 10
     max_q = check_positive_int(max_q, name="max_q", minimum=0)
     tried: list[GarchFit] = []
     for total in range(2 if max_q > 0 else 1, max_p + max_q + 1):
-        level = [_fit_garch(x, p, total - p, lags, max_iter, tol, None, tried[-1] if tried else None)
+        nested = tried[-1] if tried else None
+        level = [_fit_garch(x, p, total - p, lags, max_iter, tol, None, nested)
                  for p in range(1, max_p + 1) if 0 <= total - p <= max_q]
         if not level:
             continue
