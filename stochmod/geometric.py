@@ -381,7 +381,10 @@ def _m_constants(m_bytes: bytes) -> tuple[np.ndarray, ...]:
     """``2m``, ``8 m m``, ``1 / (2m)`` and ``4m``, computed as :func:`haar_wv_positive`
     computes them (the same operations, so the same digits), once per set of half-widths."""
     m = np.frombuffer(m_bytes, dtype=np.float64)
-    return 2.0 * m, 8.0 * m * m, 1.0 / (2.0 * m), 4.0 * m
+    out = (2.0 * m, 8.0 * m * m, 1.0 / (2.0 * m), 4.0 * m)
+    for a in out:  # shared by every call
+        a.flags.writeable = False
+    return out
     un = u[near]
     x = un[:, None] * m
     # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value

@@ -7,6 +7,7 @@ model's sampling frequency ``freq``. Physical view: the noise density
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -22,6 +23,16 @@ from stochmod.process import PhysicalValue, Process, as_generator
 from stochmod.units import wn_density
 
 __all__ = ["WN", "stochmod_processes"]
+
+
+@functools.lru_cache(maxsize=8)
+def _scales(levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """``2^j`` and ``1 / 2^j`` for j = 1..`levels` (read-only, as :meth:`WN.wv` and
+    :meth:`WN.wv_jacobian` compute them)."""
+    scale = 2.0 ** np.arange(1, levels + 1)
+    inverse = 1.0 / scale
+    scale.flags.writeable = inverse.flags.writeable = False
+    return scale, inverse
 
 
 @attrs.frozen
@@ -78,10 +89,8 @@ class WN(Process):
     def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`wv` and :meth:`wv_jacobian` at rows ``(sigma2,)`` of `values` (K, 1), bit for bit."""
         values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
-        scale = 2.0 ** np.arange(1, int(levels) + 1)
-        jac = np.empty((values.shape[0], scale.size, 1))
-        jac[:, :, 0] = 1.0 / scale
-        return values / scale, jac
+        scale, inverse = _scales(int(levels))
+        return values / scale, np.repeat(inverse[None, :, None], values.shape[0], axis=0)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Flat two-sided PSD ``sigma2 / freq`` (u^2/Hz)."""

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from stochmod.model import Model
-from stochmod.params import Domain
+from stochmod.params import Domain, scalar_contains
 from stochmod.process import Process, wv_rows_domains
 
 __all__ = ["VectorBinding"]
@@ -70,7 +70,7 @@ class VectorBinding:
             if found is None:
                 return None
             domains.extend(found)
-        if any(d.elementwise_derivative is None for d in domains):
+        if any(d.elementwise_derivative is None or scalar_contains(d.name) is None for d in domains):
             return None
         return cls(template, levels, domains)
 
@@ -88,10 +88,11 @@ class VectorBinding:
                 values[:, cols] = v = domain.from_unconstrained(theta[:, cols])
                 parts.append((domain, v))
         for domain, v in parts:
-            if domain.contains(v):  # every row: one check
+            inside = scalar_contains(domain.name)  # the fast path's own test, value by value
+            if all(map(inside, v.ravel().tolist())):  # every row at once
                 continue
-            for i, row in enumerate(v):
-                if valid[i] and not domain.contains(row):
+            for i, row in enumerate(v.tolist()):
+                if valid[i] and not all(map(inside, row)):
                     valid[i] = False
         return values, valid
 
