@@ -159,17 +159,32 @@ def main() -> None:
         print(f"speed-up one-worker / parallel       {best['one-worker']['wall'] / par['wall']:8.2f}")
     print(f"identical results                    {same}")
     ser_cpu = sum(t["cpu"] for t in ser["tasks"])
-    eq17 = sum(t["eq17_cpu"] for t in ser["tasks"]) / max(sum(t["eq17_wall"] for t in ser["tasks"]), 1e-9)
-    print(f"\nserial run, inside its one process: tasks' CPU {ser_cpu:.1f} s over {ser['wall']:.1f} s wall "
-          f"({ser_cpu / ser['wall']:.2f} cores); its eq. 17 stage uses {eq17:.2f} cores"
-          + (" (the FFTs on two threads: the serial path uses both cores for part of a file)"
-             if eq17 > 1.1 else ""))
+
+    def cores(tasks: list[dict], stages: list[str]) -> float:
+        return (sum(t[f"{s}_cpu"] for t in tasks for s in stages)
+                / max(sum(t[f"{s}_wall"] for t in tasks for s in stages), 1e-9))
+
+    rest = [s for s in STAGE_NAMES if s != "eq17"]
+    helper = ser_cpu - sum(t["thread_cpu"] for t in ser["tasks"])
+    print(f"\nserial run, in its one process: tasks' CPU {ser_cpu:.1f} s over {ser['wall']:.1f} s wall; "
+          f"CPU/wall {cores(ser['tasks'], ['eq17']):.2f} in the eq. 17 stage against "
+          f"{cores(ser['tasks'], rest):.2f} in the others; {helper:.1f} s of the CPU ran outside "
+          f"the tasks' thread (eq. 17's FFT helper threads): the serial path "
+          + ("uses the second core for part of each file" if helper > 0.02 * ser_cpu
+             else "runs on one core"))
     par_cpu = sum(t["cpu"] for t in par["tasks"])
+    busiest = max(sum(t["cpu"] for t in par["tasks"] if t["pid"] == pid)
+                  for pid in {t["pid"] for t in par["tasks"]})
     print(f"parallel run: tasks' CPU {par_cpu:.1f} s over {par['wall']:.1f} s wall = "
           f"{par_cpu / par['wall']:.2f} cores busy (of {a.workers}); CPU per file "
-          f"{par_cpu / a.files:.2f} s against {ser_cpu / a.files:.2f} s serially; "
-          f"CPU-time scaling {a.workers} x serial CPU / parallel CPU = "
-          f"{a.workers * ser_cpu / par_cpu:.2f}")
+          f"{par_cpu / a.files:.2f} s in a worker against {ser_cpu / a.files:.2f} s serially")
+    print(f"CPU-time scaling: serial tasks' CPU / the busiest worker's tasks' CPU = "
+          f"{ser_cpu / busiest:.2f} (the wall speed-up if every process had a core of its own, "
+          "start-up excluded)")
+    if helper > 0.02 * ser_cpu:
+        print(f"  the serial run's helper threads took {helper:.1f} s: on an idle machine it takes at "
+              f"least {ser_cpu - helper:.1f} s, the same estimate against that is "
+              f"{(ser_cpu - helper) / busiest:.2f}")
     print(f"results shipped back: {sum(t['result_bytes'] for t in par['tasks']) / 1e3:.0f} kB "
           f"in all; threads per worker process {sorted({int(t['threads']) for t in par['tasks']})}")
     for kind in best:

@@ -11,9 +11,10 @@ only, so a fleet run gives exactly the results of a serial run, whatever the clu
 
 A task in a worker runs on one core: the local cluster's workers have one thread each, BLAS
 pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one thread
-(:func:`single_threaded`), dask's sampling profiler off, and glibc's default ``malloc``
-(dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh ``mmap``: twice the page
-faults in the eq. 17 covariance; see docs/fleet.md).  Every task records where its time went
+(:func:`single_threaded`, through the module default ``FFT_WORKERS`` of
+:mod:`stochmod.signal.wv_covariance` where it has one), dask's sampling profiler off, and
+glibc's default ``malloc`` (dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh
+``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  Every task records where its time went
 (:class:`TaskTiming`: wall and CPU time per stage, measured inside the worker), written to
 ``OUT/fleet_tasks.csv``.
 
