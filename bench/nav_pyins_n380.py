@@ -125,19 +125,21 @@ def _onavdata_inputs():
     return increments, gnss, pva0
 
 
-def initial_error() -> dict[str, list[float]]:
-    """pyins' start perturbation (``generate_pva_error(..., rng=0)``): NED m, m/s, deg."""
+def initial_error(seed: int = 0) -> dict[str, list[float]]:
+    """pyins' start perturbation (``generate_pva_error(..., rng=seed)``): NED m, m/s, deg."""
     import pyins
 
     e = pyins.sim.generate_pva_error(INIT["position_sd"], INIT["velocity_sd"],
-                                     INIT["level_sd"], INIT["azimuth_sd"], 0)
+                                     INIT["level_sd"], INIT["azimuth_sd"], seed)
     return {"ned": e[["north", "east", "down"]].tolist(), "vel": e[["VN", "VE", "VD"]].tolist(),
             "rph": e[["roll", "pitch", "heading"]].tolist()}
 
 
-def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None) -> tuple[object, float]:
+def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None,
+              seed: int = 0) -> tuple[object, float]:
     """pyins' feedback filter with the example's settings; returns (result, wall seconds).
-    `lever_arm`: IMU to antenna in the body frame (m), or None (none)."""
+    `lever_arm`: IMU to antenna in the body frame (m), or None (none); `seed`: the draw of
+    the initial error (``generate_pva_error(..., rng=seed)``)."""
     import pyins
 
     gnss = gnss[~in_outage(gnss.index.to_numpy(), float(pva0.name))]
@@ -147,7 +149,7 @@ def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None) -> tupl
         measurements.append(pyins.measurements.NedVelocity(gnss, VELOCITY_SD, arm))
     gyro, accel = _models()
     error = pyins.sim.generate_pva_error(INIT["position_sd"], INIT["velocity_sd"],
-                                         INIT["level_sd"], INIT["azimuth_sd"], 0)
+                                         INIT["level_sd"], INIT["azimuth_sd"], seed)
     start = pyins.sim.perturb_pva(pva0, error)
     t = time.perf_counter()
     result = pyins.filters.run_feedback_filter(
@@ -158,11 +160,14 @@ def run_pyins(increments, gnss, pva0, *, velocity: bool, lever_arm=None) -> tupl
 
 def states_at_outages(result, drive) -> dict[str, list]:
     """pyins' state at the last epoch before each outage: roll/pitch/heading error against the
-    reference (deg), gyro bias (deg/h), accelerometer bias (m/s^2), and their 1-sigma."""
+    reference (deg), NED velocity error (m/s), gyro bias (deg/h), accelerometer bias (m/s^2),
+    and their 1-sigma; ``pva_before``: the epoch's time and lat, lon (deg), alt (m), NED
+    velocity (m/s), roll, pitch, heading (deg)."""
     traj, sd = result.trajectory, result.trajectory_sd
     out: dict[str, list] = {k: [] for k in ("rph_error_deg", "gyro_bias_deg_h", "accel_bias_m_s2",
                                             "rph_sd_deg", "gyro_bias_sd_deg_h",
-                                            "accel_bias_sd_m_s2")}
+                                            "accel_bias_sd_m_s2", "vel_error_m_s",
+                                            "vel_sd_m_s")}
     for start in OUTAGE_STARTS:
         t = drive.t0 + start
         i = int(np.searchsorted(traj.index.to_numpy(), t)) - 1
@@ -171,7 +176,13 @@ def states_at_outages(result, drive) -> dict[str, list]:
         err[2] = (err[2] + 180.0) % 360.0 - 180.0
         j = int(np.searchsorted(result.gyro.index.to_numpy(), t)) - 1
         k = int(np.searchsorted(sd.index.to_numpy(), t)) - 1
+        out.setdefault("pva_before", []).append(
+            [float(traj.index[i])] + traj[["lat", "lon", "alt", "VN", "VE", "VD", "roll", "pitch",
+                                           "heading"]].to_numpy()[i].tolist())
         out["rph_error_deg"].append(err.tolist())
+        out["vel_error_m_s"].append(
+            (traj[["VN", "VE", "VD"]].to_numpy()[i] - ref.vel_ned[0]).tolist())
+        out["vel_sd_m_s"].append(sd[["VN", "VE", "VD"]].to_numpy()[k].tolist())
         out["gyro_bias_deg_h"].append(np.degrees(result.gyro.to_numpy()[j] * 3600.0).tolist())
         out["accel_bias_m_s2"].append(result.accel.to_numpy()[j].tolist())
         out["rph_sd_deg"].append(sd[["roll", "pitch", "heading"]].to_numpy()[k].tolist())

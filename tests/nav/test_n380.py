@@ -15,7 +15,7 @@ from stochmod.nav import earth, frames
 from stochmod.nav.logs import read_gnss_csv, read_imu_csv
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
-from _n380 import (OUTAGE_STARTS, load_n380, max_outage_errors,  # noqa: E402
+from _n380 import (load_n380, max_outage_errors,  # noqa: E402
                    onavdata_missing_reason, run_stochmod, write_navigate_csvs)
 
 pytestmark = pytest.mark.skipif(onavdata_missing_reason() is not None,
@@ -113,44 +113,41 @@ def test_real_drive_beside_pyins(drive, mode) -> None:
 
 
 # The lever arm fitted from the data (docs/navigation.md, "Real drive"): with it both filters
-# reproduce the pattern of the issue's pyins figures. In outage 2 the car starts from a stop
-# and the maximum is a few metres, so a relative slack alone would test noise: starting
-# stochmod from the unperturbed reference instead of pyins' one draw of the initial error
-# moves its outage-2 maximum by 2.7 m (3.3 -> 6.0 m). Hence 10 % or ABSOLUTE_SLACK.
+# reproduce the pattern of the issue's pyins figures. One drive is one realisation, and the
+# start alone moves the outage-2 maximum by metres, so the comparison is over an ensemble of the
+# SAME seeded random starts (bench/nav_n380_ensemble.py; pyins' runs, ~10 min each here, are
+# cached in bench/reference/nav_pyins_n380_ensemble.json by that script).
 LEVER_ARM = (-1.3, 0.0, 0.0)
-ABSOLUTE_SLACK = 2.0  # m
-
-
-def _before(times: np.ndarray, t: float) -> int:
-    return int(np.searchsorted(times, t)) - 1
+ENSEMBLE = PEER.parent / "nav_pyins_n380_ensemble.json"
+# Outages 2 and 3: stochmod is worse than pyins beyond the ensemble's standard error by about a
+# metre (docs/navigation_real_drive.md, "Over seeded starts"), so "no worse" is not asserted
+# there; the gap is held below GAP_BOUND (m) so that it cannot grow unnoticed.
+GAP_BOUND = 2.0
 
 
 @pytest.mark.slow
-def test_real_drive_beside_pyins_with_the_same_lever_arm(drive) -> None:
-    """Same inputs, start and fixed lever arm as pyins' ``raw/position/lever_arm`` run: the
-    outage errors, and the two filters' states just before each outage (attitude error against
-    the reference, gyro and accelerometer biases) within half of pyins' own 1-sigma."""
-    peer = json.loads(PEER.read_text())
-    run = peer["runs"]["raw/position/lever_arm"]
-    assert run["lever_arm_m"] == list(LEVER_ARM)
-    theirs = np.array(run["max_horizontal_error_m"])
-    result = run_stochmod(drive, velocity=False, initial_error=peer["initial_error"],
-                          lever_arm=LEVER_ARM)
-    ours = np.array(max_outage_errors(result.time, result.lat, result.lon, drive.reference,
-                                      drive.t0))
-    assert ours.sum() <= theirs.sum()
-    np.testing.assert_array_less(ours, (1 + RELATIVE_SLACK) * theirs + ABSOLUTE_SLACK)
-    states = run["states_at_outages"]
-    for k, start in enumerate(OUTAGE_STARTS):
-        t = drive.t0 + start
-        i = _before(result.time, t)
-        err = result.rph[i] - drive.reference.at(result.time[i:i + 1]).rph[0]
-        err[2] = (err[2] + 180.0) % 360.0 - 180.0
-        e = _before(result.epoch_time, t)
-        gyro = np.degrees(result.sensor_errors[e, :3]) * 3600.0
-        accel = result.sensor_errors[e, 3:]
-        for ours_k, name, sd in ((err, "rph_error_deg", "rph_sd_deg"),
-                                 (gyro, "gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
-                                 (accel, "accel_bias_m_s2", "accel_bias_sd_m_s2")):
-            np.testing.assert_array_less(np.abs(ours_k - states[name][k]),
-                                         0.5 * np.array(states[sd][k]), err_msg=name)
+def test_real_drive_over_seeded_starts_beside_pyins(drive) -> None:
+    """Both filters from the same seeded starts, position updates, the fitted lever arm fixed:
+    per outage the paired difference of the maximum horizontal error (stochmod - pyins) over
+    the seeds, and before every outage of every seed the two filters' attitude error, gyro and
+    accelerometer biases within half of pyins' own 1-sigma."""
+    from nav_n380_ensemble import stochmod_runs, summary, verdict
+
+    cache = json.loads(ENSEMBLE.read_text())
+    assert cache["lever_arm_m"] == list(LEVER_ARM) and cache["mode"] == "position"
+    assert len(cache["runs"]) >= 8
+    runs = stochmod_runs(drive, cache)
+    s = summary({seed: r[0] for seed, r in runs.items()}, cache)
+    assert all((r[0] > 1.0).all() for r in runs.values())  # dead reckoning: metres, not a copy
+    # outage 1: better with margin; over the three outages: better with margin
+    assert verdict(s)[0] == "better"
+    sums = np.array([runs[k][0].sum() - sum(cache["runs"][k]["max_horizontal_error_m"])
+                     for k in runs])
+    assert sums.mean() + 2 * sums.std(ddof=1) / np.sqrt(sums.size) < 0
+    np.testing.assert_array_less(s["difference_mean"][1:], GAP_BOUND)
+    for seed, (_, ours) in runs.items():
+        theirs = cache["runs"][seed]["states_at_outages"]
+        for name, sd in (("rph_error_deg", "rph_sd_deg"), ("gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
+                         ("accel_bias_m_s2", "accel_bias_sd_m_s2")):
+            np.testing.assert_array_less(np.abs(np.subtract(ours[name], theirs[name])),
+                                         0.5 * np.array(theirs[sd]), err_msg=f"{seed} {name}")
