@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import mpmath as mp
 import numpy as np
@@ -183,6 +184,7 @@ def test_simulation_is_stationary_and_reproducible():
 @settings(max_examples=30, deadline=None)
 @given(log_tc=st.floats(-3.0, 6.0), log_sigma=st.floats(-6.0, 3.0), freq=st.sampled_from([1.0, 100.0, 1000.0]))
 @example(log_tc=-3.0, log_sigma=0.0, freq=1.0)  # u = 1000: phi underflows
+@example(log_tc=-2.859375, log_sigma=0.0, freq=1.0)  # u = 723: phi = 3.6e-314 is subnormal
 def test_physical_constructors_round_trip(log_tc, log_sigma, freq):
     tc, sigma = 10.0**log_tc, 10.0**log_sigma
     gm = GM.from_correlation_time(tc, sigma)
@@ -190,13 +192,16 @@ def test_physical_constructors_round_trip(log_tc, log_sigma, freq):
     assert phys["Tc"].unit == "s" and phys["sigma"].unit == "u"
     assert abs(phys["Tc"].value - tc) <= 1e-15 * tc and abs(phys["sigma"].value - sigma) <= 1e-15 * sigma
     u = gm.beta / freq
-    if u > 700.0:  # phi = exp(-u) underflows to 0: no AR(1) view to come back from
+    phi, q = gm.to_ar1(freq)
+    if phi == 0.0:  # exp(-u) underflows (u > 745): no AR(1) view to come back from
         with pytest.raises(DomainError):
-            GM.from_ar1(*gm.to_ar1(freq), freq)
+            GM.from_ar1(phi, q, freq)
         return
-    back = GM.from_ar1(*gm.to_ar1(freq), freq)
-    # beta comes back from log(phi): relative error ~ eps / u
-    assert abs(back.beta - gm.beta) <= 4e-16 * gm.beta * max(1.0, 1.0 / u)
+    back = GM.from_ar1(phi, q, freq)
+    # beta comes back from log(phi): relative error ~ eps / u, plus, for a subnormal phi
+    # (u > 708), the subnormal spacing 2^-1074 relative to phi, over u
+    spacing = math.ulp(0.0) / phi if phi < sys.float_info.min else 0.0
+    assert abs(back.beta - gm.beta) <= (4e-16 * max(1.0, 1.0 / u) + spacing / u) * gm.beta
     assert abs(back.sigma2 - gm.sigma2) <= 4e-16 * gm.sigma2 * max(1.0, 1.0 / u)
 
 
