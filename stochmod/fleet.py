@@ -11,8 +11,8 @@ only, so a fleet run gives exactly the results of a serial run, whatever the clu
 
 A task in a worker runs on one core: the local cluster's workers have one thread each, BLAS
 pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one thread
-(:func:`single_threaded`, through the module default ``FFT_WORKERS`` of
-:mod:`stochmod.signal.wv_covariance` where it has one), dask's sampling profiler off, and
+(:func:`single_threaded`, through ``$STOCHMOD_FFT_THREADS``, the default of
+:mod:`stochmod.signal.wv_covariance`), dask's sampling profiler off, and
 glibc's default ``malloc`` (dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh
 ``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  Every task records where its time went
 (:class:`TaskTiming`: wall and CPU time per stage, measured inside the worker), written to
@@ -39,7 +39,6 @@ import contextlib
 import copy
 import csv
 import functools
-import importlib
 import math
 import os
 import pickle
@@ -55,6 +54,7 @@ import numpy as np
 
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
+from stochmod.signal.wv_covariance import THREADS_VARIABLE
 
 __all__ = ["OUTLIER_Z", "MIN_UNITS", "FleetRow", "fleet_rows", "robust_z", "write_fleet_csv",
            "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne",
@@ -71,9 +71,6 @@ _MAD_TO_SD = 1.4826
 #: (the report: datasheet and Allan reading, JSON, exports).
 STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": "fits",
           "_figure": "figures"}
-#: The eq. 17 covariance's module-level default of FFT threads (stochmod.signal.wv_covariance),
-#: set to one in a fleet worker.
-_FFT_THREADS = ("stochmod.signal.wv_covariance", "FFT_WORKERS")
 #: dask configuration of the local cluster's workers: no sampling profiler (a thread that
 #: walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
 #: module docstring).
@@ -242,22 +239,27 @@ def _os_threads() -> int:
         return threading.active_count()
 
 
-def single_threaded() -> contextlib.AbstractContextManager:
-    """Make this process's numerical libraries run a task on one thread; returns a context
-    manager for the task's scipy.fft calls that do not name their thread count.
-
-    Sets the eq. 17 covariance's module-level default of FFT threads (where
-    :mod:`stochmod.signal.wv_covariance` has one) to 1. BLAS cannot be pinned at run time
+@contextlib.contextmanager
+def single_threaded() -> Iterator[None]:
+    """Run the enclosed task's numerical work on one thread (the fleet's workers are the
+    parallel unit): the eq. 17 covariance's default thread count (``$STOCHMOD_FFT_THREADS``,
+    :func:`stochmod.signal.wv_covariance.default_workers`) and scipy.fft's calls that do not
+    name theirs are set to 1, and restored afterwards. BLAS cannot be pinned at run time
     without threadpoolctl: dask's worker environment does it (``OPENBLAS_NUM_THREADS=1``
     ...) before the worker process starts.
     """
-    module, name = _FFT_THREADS
-    mod = importlib.import_module(module)
-    if hasattr(mod, name):
-        setattr(mod, name, 1)
     from scipy import fft
 
-    return fft.set_workers(1)
+    before = os.environ.get(THREADS_VARIABLE)
+    os.environ[THREADS_VARIABLE] = "1"
+    try:
+        with fft.set_workers(1):
+            yield
+    finally:
+        if before is None:
+            os.environ.pop(THREADS_VARIABLE, None)
+        else:
+            os.environ[THREADS_VARIABLE] = before
 
 
 def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: bool

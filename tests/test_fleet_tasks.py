@@ -47,12 +47,17 @@ def test_serial_executor_times_each_stage_and_keeps_results_and_errors():
 def test_single_threaded_sets_the_fft_default_to_one(monkeypatch):
     from scipy import fft
 
-    import stochmod.signal.wv_covariance as wc
+    from stochmod.signal.wv_covariance import THREADS_VARIABLE, default_workers
 
-    monkeypatch.setattr(wc, "FFT_WORKERS", 2, raising=False)
+    monkeypatch.setenv(THREADS_VARIABLE, "2")
     with single_threaded():
         assert fft.get_workers() == 1
-    assert wc.FFT_WORKERS == 1
+        assert default_workers() == 1
+    assert default_workers() == 2  # restored
+    monkeypatch.delenv(THREADS_VARIABLE)
+    with single_threaded():
+        assert default_workers() == 1
+    assert THREADS_VARIABLE not in os.environ
 
 
 def _worker_setup() -> dict:

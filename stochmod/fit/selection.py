@@ -693,7 +693,9 @@ def select(
     with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
         if prepared is not None:
             shared = prepared
-        elif scheme.needs_signal:  # Omega needs eq. 17 of each column: in parallel
+        elif scheme.needs_signal or not isinstance(pool, concurrent.futures.ProcessPoolExecutor):
+            # Omega needs eq. 17 of each column (in parallel), or the executor is not a local
+            # process pool (in-process executors time their calls: stochmod.fleet)
             shared = [f.result() for f in [
                 pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed, options))
                 for k in range(len(cols))]]
