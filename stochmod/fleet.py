@@ -74,8 +74,9 @@ STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": 
 #: dask configuration of the local cluster's workers: no sampling profiler (a thread that
 #: walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
 #: module docstring).
+_MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
-                         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+                         f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None}
 
 
 @attrs.frozen
@@ -304,10 +305,23 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     else:
         import dask
 
-        with dask.config.set(_LOCAL_CLUSTER_CONFIG), \
+        with dask.config.set(_LOCAL_CLUSTER_CONFIG), _without_env(_MALLOC_TRIM), \
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              dashboard_address=None) as cluster, Client(cluster) as client:
             yield client
+
+
+@contextlib.contextmanager
+def _without_env(name: str) -> Iterator[None]:
+    """This process's environment without `name` for the enclosed code (restored after): the
+    local cluster's worker processes inherit the environment, and a LocalCluster started
+    earlier with dask's defaults leaves ``MALLOC_TRIM_THRESHOLD_`` set in it."""
+    before = os.environ.pop(name, None)
+    try:
+        yield
+    finally:
+        if before is not None:
+            os.environ[name] = before
 
 
 def calibrate_files(tasks: Sequence[argparse.Namespace], calibrate_one: CalibrateOne,

@@ -68,14 +68,17 @@ def _worker_setup() -> dict:
             "profile": dask.config.get("distributed.worker.profile.enabled")}
 
 
-def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim():
+def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim(monkeypatch):
     pytest.importorskip("distributed")
+    # as a LocalCluster started earlier with dask's defaults leaves it in this process
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     with _client(1, None) as client:
         nthreads = client.nthreads()
         (setup,) = client.run(_worker_setup).values()
     assert list(nthreads.values()) == [1]
     assert setup == {"pid": setup["pid"], "malloc": None, "blas": "1", "profile": False}
     assert setup["pid"] != os.getpid()
+    assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"  # this process's own, restored
 
 
 @pytest.mark.parametrize("workers", [[], ["--workers", "2"]])

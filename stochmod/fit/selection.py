@@ -690,10 +690,12 @@ def select(
         if not node["model"].free_mask().any():
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
-    with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar:
+    with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar, \
+            concurrent.futures.ThreadPoolExecutor(1) as here:
+        local = isinstance(pool, concurrent.futures.ProcessPoolExecutor)
         if prepared is not None:
             shared = prepared
-        elif scheme.needs_signal or not isinstance(pool, concurrent.futures.ProcessPoolExecutor):
+        elif scheme.needs_signal or not local:
             # Omega needs eq. 17 of each column (in parallel), or the executor is not a local
             # process pool (in-process executors time their calls: stochmod.fleet)
             shared = [f.result() for f in [
@@ -709,8 +711,10 @@ def select(
             if free > J:
                 raise InputError(f"candidate {name} has {free} free parameters but the signal gives "
                                  f"only {J} wavelet levels")
-        covs = [pool.submit(_covariance, (data[:, k], sh.empirical, J)) if sh.covariance is None else None
-                for k, sh in enumerate(shared)]  # V runs alongside the fits
+        # V runs alongside the fits: beside a local process pool, on a thread of this process
+        # (its transforms release the GIL; no signal sent to a worker), else on the executor
+        covs = [(here if local else pool).submit(_covariance, (data[:, k], sh.empirical, J))
+                if sh.covariance is None else None for k, sh in enumerate(shared)]
         try:
             fits = _run_fits(pool, graph, shared, freq, weighting, seed, bar)
         except BaseException:
