@@ -53,14 +53,15 @@ def default_workers() -> int:
 def _level_power(nfft: int) -> Callable[[np.ndarray, np.ndarray], None]:
     """The function ``power(buf, out)`` that sets ``out = |rfft(buf)|^2``: the float32 power
     spectrum at ``nfft // 2 + 1`` frequencies of one zero-padded series of `nfft` (even)
-    samples. With the compiled loops, the complex transform of the sample pairs and
-    :func:`~stochmod.signal.spectrum_jit.half_spectrum_power` (about 40 % less time); without,
-    scipy's real transform."""
+    samples; `buf` may be overwritten. With the compiled loops, the complex transform of the
+    sample pairs, in place, and :func:`~stochmod.signal.spectrum_jit.half_spectrum_power`
+    (about 40 % less time); without, scipy's real transform."""
     if haar_jit.AVAILABLE:
         table = spectrum_jit.twiddles(nfft)
 
         def power(buf: np.ndarray, out: np.ndarray) -> None:
-            spectrum_jit.half_spectrum_power(fft.fft(buf.view(np.complex64)), table, out)
+            z = fft.fft(buf.view(np.complex64), overwrite_x=True)  # no 8 nfft-byte allocation
+            spectrum_jit.half_spectrum_power(z, table, out)
     else:
 
         def power(buf: np.ndarray, out: np.ndarray) -> None:
@@ -91,8 +92,7 @@ def _power_spectra(
     scale = np.zeros(levels)
     sizes = np.empty(levels, dtype=np.int64)
     coef = np.empty(n)
-    bufs = [np.zeros(nfft, dtype=np.float32) for _ in range(workers + 1 if pool else 1)]
-    filled = [n] * len(bufs)  # length of the series last written to each buffer
+    bufs = [np.empty(nfft, dtype=np.float32) for _ in range(workers + 1 if pool else 1)]
     power = _level_power(nfft)
     pending: collections.deque[concurrent.futures.Future[None]] = collections.deque()
     for j, sumsq, m in pyramid(x, levels, wavelet, coef):
@@ -105,8 +105,7 @@ def _power_spectra(
             pending.popleft().result()  # the task that read bufs[k]
         buf = bufs[k]
         np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
-        buf[m : filled[k]] = 0.0  # the rest of a longer, earlier series
-        filled[k] = m
+        buf[m:] = 0.0  # the padding (the last transform may have overwritten it)
         scale[j - 1], sizes[j - 1] = ms, m
         if pool is None:
             power(buf, powers[j - 1])
