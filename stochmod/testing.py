@@ -100,6 +100,7 @@ __all__ = [
     "check_wv_monte_carlo",
     "check_psd_integral",
     "check_wv_fallbacks",
+    "check_wv_rows",
     "check_state_space",
     "check_rediscretisation",
     "check_wv_jacobian",
@@ -708,6 +709,36 @@ def check_wv_jacobian(process: Process | type[Process], freq: float = 100.0, *, 
             "max_rel_error": float(np.max(err / norm))}
 
 
+def check_wv_rows(process: Process | type[Process], freq: float = 100.0, *, rng: RngLike = 0,
+                  levels: int = 12, rows: int = 16) -> Figures:
+    """A family's own ``haar_wv_rows`` gives, row by row and bit for bit, the
+    ``wv(levels, freq)`` and ``wv_jacobian(levels, freq)`` of the process each row builds
+    (the contract's rule: the GMWM binding uses the rows in place of Process objects). The
+    rows are the example and `rows - 1` points drawn around it in the unconstrained space
+    (sd 2). Not applicable when the family keeps the base class's rows."""
+    freq = check_freq(freq)
+    p = _instance(process, freq)
+    if not _overrides(type(p), "haar_wv_rows"):
+        raise NotApplicable("the family keeps the base class's haar_wv_rows (built from wv)")
+    gen = as_generator(rng)
+    theta = p.to_unconstrained()
+    points = [p] + [p.from_unconstrained(theta + 2.0 * gen.standard_normal(theta.size))
+                    for _ in range(rows - 1)]
+    values = np.array([q.vector() for q in points])
+    wv, jac = p.haar_wv_rows(values, levels, freq)
+    wv, jac = np.asarray(wv), np.asarray(jac)
+    if wv.shape != (rows, levels) or jac.shape != (rows, levels, values.shape[1]):
+        raise AssertionError(f"{p!r}.haar_wv_rows gave shapes {wv.shape} and {jac.shape}, "
+                             f"expected {(rows, levels)} and {(rows, levels, values.shape[1])}")
+    for k, q in enumerate(points):
+        for got, want, what in ((wv[k], q.wv(levels, freq), "wv"),
+                                (jac[k], q.wv_jacobian(levels, freq), "wv_jacobian")):
+            if not np.array_equal(got, np.asarray(want, dtype=float)):
+                raise AssertionError(f"{p!r}.haar_wv_rows row {k} ({q!r}) differs from its "
+                                     f"{what}: max |diff| {np.max(np.abs(got - want)):.3g}")
+    return {"levels": levels, "rows": rows}
+
+
 def check_declarations(process: Process | type[Process], freq: float = 100.0, *,
                        rng: RngLike = 0) -> Figures:
     """Roles on every parameter and a true scale role; a finite, value-only ordering key;
@@ -811,6 +842,7 @@ CHECKS: Mapping[str, tuple[Callable[..., Figures], tuple[str, ...]]] = {
     "wv_jacobian": (check_wv_jacobian, ()),
     "declarations": (check_declarations, ()),
     "ieee952": (check_ieee952, ()),
+    "wv_rows": (check_wv_rows, ()),
 }
 
 
