@@ -251,16 +251,8 @@ def single_threaded() -> Iterator[None]:
     """
     from scipy import fft
 
-    before = os.environ.get(THREADS_VARIABLE)
-    os.environ[THREADS_VARIABLE] = "1"
-    try:
-        with fft.set_workers(1):
-            yield
-    finally:
-        if before is None:
-            os.environ.pop(THREADS_VARIABLE, None)
-        else:
-            os.environ[THREADS_VARIABLE] = before
+    with _environ(THREADS_VARIABLE, "1"), fft.set_workers(1):
+        yield
 
 
 def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: bool
@@ -305,21 +297,25 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     else:
         import dask
 
-        with dask.config.set(_LOCAL_CLUSTER_CONFIG), _without_env(_MALLOC_TRIM), \
+        with dask.config.set(_LOCAL_CLUSTER_CONFIG), _environ(_MALLOC_TRIM, None), \
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              dashboard_address=None) as cluster, Client(cluster) as client:
             yield client
 
 
 @contextlib.contextmanager
-def _without_env(name: str) -> Iterator[None]:
-    """This process's environment without `name` for the enclosed code (restored after): the
-    local cluster's worker processes inherit the environment, and a LocalCluster started
-    earlier with dask's defaults leaves ``MALLOC_TRIM_THRESHOLD_`` set in it."""
+def _environ(name: str, value: str | None) -> Iterator[None]:
+    """This process's environment variable `name` set to `value` (removed when None) for the
+    enclosed code, restored after. Worker processes inherit the environment: a local
+    cluster's workers must not inherit the ``MALLOC_TRIM_THRESHOLD_`` that a LocalCluster
+    started earlier with dask's defaults leaves in it."""
     before = os.environ.pop(name, None)
+    if value is not None:
+        os.environ[name] = value
     try:
         yield
     finally:
+        os.environ.pop(name, None)
         if before is not None:
             os.environ[name] = before
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
 import os
 from collections.abc import Callable
 
@@ -74,15 +75,15 @@ def _level_power(nfft: int) -> Callable[[np.ndarray, np.ndarray], None]:
 
 def _power_spectra(
     x: np.ndarray, levels: int, wavelet: str, nfft: int, clip: np.ndarray | None = None,
-    pool: concurrent.futures.Executor | None = None, workers: int = 1,
+    workers: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scaled half-spectrum powers ``|X_j(f)|^2 / scale_j`` of every level's interior W_j.
 
     Returns ``(powers, scale, sizes)``: float32 rows of ``nfft // 2 + 1`` frequencies, the
     float64 factors ``scale_j = mean(W_j^2)`` (unit^2) that undo the normalisation, and M_j.
     Each series is divided by its RMS before the single-precision FFT, so that neither
-    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. With a
-    thread `pool` of `workers` threads, each level's transform runs on the pool while this
+    ``|X|^2`` nor its products leave float32's range whatever the signal's unit. With
+    ``workers > 1``, each level's transform runs on a pool of `workers` threads while this
     thread computes the next levels (one one-dimensional transform per task: pocketfft's
     batched transforms of such long rows are slower than the rows one by one). With `clip`,
     level j's coefficients are first clipped to ``+-clip[j-1]``.
@@ -92,27 +93,29 @@ def _power_spectra(
     scale = np.zeros(levels)
     sizes = np.empty(levels, dtype=np.int64)
     coef = np.empty(n)
-    bufs = [np.empty(nfft, dtype=np.float32) for _ in range(workers + 1 if pool else 1)]
+    bufs = [np.empty(nfft, dtype=np.float32) for _ in range(workers + 1 if workers > 1 else 1)]
     power = _level_power(nfft)
     pending: collections.deque[concurrent.futures.Future[None]] = collections.deque()
-    for j, sumsq, m in pyramid(x, levels, wavelet, coef):
-        if clip is not None:
-            w = np.clip(coef[:m], -clip[j - 1], clip[j - 1], out=coef[:m])
-            sumsq = float(np.dot(w, w))
-        ms = sumsq / m
-        k = (j - 1) % len(bufs)
-        if len(pending) == len(bufs):
-            pending.popleft().result()  # the task that read bufs[k]
-        buf = bufs[k]
-        np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
-        buf[m:] = 0.0  # the padding (the last transform may have overwritten it)
-        scale[j - 1], sizes[j - 1] = ms, m
-        if pool is None:
-            power(buf, powers[j - 1])
-        else:
-            pending.append(pool.submit(power, buf, powers[j - 1]))
-    for task in pending:
-        task.result()
+    with (concurrent.futures.ThreadPoolExecutor(workers) if workers > 1
+          else contextlib.nullcontext()) as pool:
+        for j, sumsq, m in pyramid(x, levels, wavelet, coef):
+            if clip is not None:
+                w = np.clip(coef[:m], -clip[j - 1], clip[j - 1], out=coef[:m])
+                sumsq = float(np.dot(w, w))
+            ms = sumsq / m
+            k = (j - 1) % len(bufs)
+            if len(pending) == len(bufs):
+                pending.popleft().result()  # the task that read bufs[k]
+            buf = bufs[k]
+            np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
+            buf[m:] = 0.0  # the padding (the last transform may have overwritten it)
+            scale[j - 1], sizes[j - 1] = ms, m
+            if pool is None:
+                power(buf, powers[j - 1])
+            else:
+                pending.append(pool.submit(power, buf, powers[j - 1]))
+        for task in pending:
+            task.result()
     return powers, scale, sizes
 
 
@@ -192,11 +195,7 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
         if bounds.shape != (J,) or not np.all(bounds > 0):
             raise InputError(f"clip must hold {J} positive bounds (one per level), got {bounds!r}")
     workers = default_workers() if workers is None else check_positive_int(workers, name="workers")
-    if workers == 1:
-        powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds)
-    else:
-        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
-            powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds, pool, workers)
+    powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds, workers)
     gram = _half_spectrum_gram(powers, nfft)
     M = np.minimum.outer(sizes, sizes).astype(np.float64)
     V = gram * np.outer(scale, scale) / (nfft * M**3)
