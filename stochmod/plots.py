@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stochmod._validation import check_positive_int
+from stochmod.errors import InputError
 from stochmod.process import as_generator
 from stochmod.signal.wavelet_variance import wvar
 
@@ -38,7 +39,7 @@ def _figure_class() -> Any:
 
 
 def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | int = 0,
-                 n: int | None = None) -> np.ndarray:
+                 n: int | None = None, *, indices: slice | None = None) -> np.ndarray:
     """Empirical Haar WVs of `n_sim` series simulated from the fitted model.
 
     Parameters
@@ -51,22 +52,29 @@ def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | in
         Seed (each series draws from its own child generator).
     n : int, optional
         Length of each series (default: the length of the fitted signal).
+    indices : slice, optional
+        Only these of the `n_sim` series (default: all). Series i always draws from the i-th
+        of the `n_sim` child generators spawned from `rng`, so with an integer seed, calls over
+        disjoint slices (e.g. in parallel) stack to the full set.
 
     Returns
     -------
-    ndarray (n_sim, J)
+    ndarray (n_sim, J), or (number of `indices`, J)
         Wavelet variances at the fitted levels, unit^2.
     """
     n_sim = check_positive_int(n_sim, name="n_sim")
     n = fit.empirical.n if n is None else check_positive_int(n, name="n")
-    freq = fit.model.freq
-    return np.array([wvar(fit.model.simulate(n, g), freq, levels=fit.levels,
-                          wavelet=fit.empirical.wavelet).wv
-                     for g in as_generator(rng).spawn(n_sim)])
+    children = as_generator(rng).spawn(n_sim)
+    if indices is not None:
+        children = children[indices]
+    freq, J = fit.model.freq, fit.levels
+    return np.array([wvar(fit.model.simulate(n, g), freq, levels=J,
+                          wavelet=fit.empirical.wavelet).wv for g in children]).reshape(-1, J)
 
 
 def plot_fit(fit: GMWMResult, *, n_sim: int = 20, rng: np.random.Generator | int = 0,
-             title: str | None = None, unit: str = "u", ax: Any = None) -> Any:
+             title: str | None = None, unit: str = "u", ax: Any = None,
+             simulated: np.ndarray | None = None) -> Any:
     """Validation figure of a GMWM fit: empirical WV (95% CI), model WV, simulated WVs.
 
     Parameters
@@ -83,6 +91,9 @@ def plot_fit(fit: GMWMResult, *, n_sim: int = 20, rng: np.random.Generator | int
         Signal unit for the axis label.
     ax : matplotlib Axes, optional
         Draw into these axes; by default a new Figure is created.
+    simulated : ndarray (k, J), optional
+        The simulated WVs to draw, already computed (:func:`simulated_wv`, e.g. in parallel);
+        `n_sim` and `rng` are then not used.
 
     Returns
     -------
@@ -96,9 +107,14 @@ def plot_fit(fit: GMWMResult, *, n_sim: int = 20, rng: np.random.Generator | int
         fig = ax.figure
     emp, J = fit.empirical, fit.levels
     tau = emp.tau[:J]
-    if n_sim:
-        for i, wv in enumerate(simulated_wv(fit, n_sim, rng)):
-            ax.loglog(tau, wv, color="0.75", lw=0.8, label=f"{n_sim} simulations from fit" if i == 0 else None)
+    if simulated is None:
+        simulated = simulated_wv(fit, n_sim, rng) if n_sim else np.empty((0, J))
+    elif np.shape(simulated)[1:] != (J,):
+        raise InputError(f"simulated must hold rows of {J} wavelet variances (the fit's levels), "
+                         f"got shape {np.shape(simulated)}")
+    for i, wv in enumerate(simulated):
+        ax.loglog(tau, wv, color="0.75", lw=0.8,
+                  label=f"{len(simulated)} simulations from fit" if i == 0 else None)
     ax.fill_between(tau, emp.ci_low[:J], emp.ci_high[:J], color="C0", alpha=0.25,
                     label=f"{100 * (1 - emp.alpha):g}% CI")
     ax.loglog(tau, emp.wv[:J], "o", color="C0", ms=4, label="empirical WV")

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import stochmod
+from stochmod.cli import calibrate as calibrate_cli
 from stochmod.cli import main
 from stochmod.errors import InputError
 from stochmod.examples import XSENS_COLUMNS, xsens_mtig, xsens_mtig_models
@@ -84,9 +85,10 @@ def test_calibrate_lattice_and_json_output_match_the_file(gm_wn_file, tmp_path, 
     assert printed["columns"]["0"]["name"] == "GM+WN"
 
 
-def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys):
+def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys, monkeypatch):
     """The fits and figures on a pool of 2 worker processes give the same calibration.json and
-    the same figure bytes as everything in this process (--jobs 1)."""
+    the same figure bytes as everything in this process (--jobs 1), however the figure's
+    simulations are split into tasks."""
     pytest.importorskip("matplotlib")
     base = ["calibrate", str(gm_wn_file), "--freq", "50", "--candidates", "WN", "GM+WN",
             "--n-sim", "2", "--json"]
@@ -94,6 +96,11 @@ def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys):
     pooled = run_json(base + ["--out", str(tmp_path / "two"), "--jobs", "2"], capsys)
     assert pooled == serial
     assert (tmp_path / "two" / "0.png").read_bytes() == (tmp_path / "one" / "0.png").read_bytes()
+    # the figure's simulations split over two tasks: the same figure, drawn here
+    monkeypatch.setattr(calibrate_cli, "SIMULATIONS_PER_TASK", 1)
+    split = run_json(base + ["--out", str(tmp_path / "split"), "--jobs", "2"], capsys)
+    assert split == serial
+    assert (tmp_path / "split" / "0.png").read_bytes() == (tmp_path / "one" / "0.png").read_bytes()
     assert main(base + ["--out", str(tmp_path / "bad"), "--jobs", "0"]) == 2
     assert "--jobs" in capsys.readouterr().err
 
@@ -183,6 +190,23 @@ def test_simulated_wv_mean_matches_theory_and_figure_has_the_layers():
     ax = fig.axes[0]
     assert len(ax.lines) == 5 + 2  # simulations, empirical, model
     assert ax.get_xscale() == "log" and "(rad/s)^2" in ax.get_ylabel()
+
+
+def test_simulated_wv_slices_stack_to_the_full_set_and_can_be_drawn():
+    pytest.importorskip("matplotlib")
+    from stochmod.plots import plot_fit, simulated_wv
+
+    truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1.0) + WN(sigma2=0.5)", 10.0)
+    fit = gmwm(truth.simulate(2**11, rng=3), "GM+WN", 10.0)
+    full = simulated_wv(fit, n_sim=5, rng=4)
+    parts = [simulated_wv(fit, n_sim=5, rng=4, indices=slice(a, b)) for a, b in [(0, 2), (2, 5)]]
+    assert np.array_equal(np.vstack(parts), full)
+    assert simulated_wv(fit, n_sim=5, rng=4, indices=slice(5, 5)).shape == (0, fit.levels)
+    ax = plot_fit(fit, simulated=full[:3]).axes[0]
+    assert len(ax.lines) == 3 + 2
+    assert np.array_equal(ax.lines[1].get_ydata(), full[1])
+    with pytest.raises(InputError, match="levels"):
+        plot_fit(fit, simulated=full[:, :-1])
 
 
 def test_plots_without_matplotlib_name_the_extra(monkeypatch):

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import attrs
+import numpy as np
 
 from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import (add_input_arguments, load_segments, longest_segment,
@@ -28,7 +29,11 @@ from stochmod.model import augment_axes
 from stochmod.reporting import format_table
 from stochmod.statespace import StateSpaceBlock
 
-__all__ = ["register", "run", "calibrate_file", "calibrate_unit", "calibration_report"]
+__all__ = ["register", "run", "calibrate_file", "calibrate_unit", "calibration_report",
+           "SIMULATIONS_PER_TASK"]
+
+#: Simulated series per task of the figures on a pool (the default 20 a column: two tasks).
+SIMULATIONS_PER_TASK = 10
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -143,17 +148,35 @@ def _filename(column: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", column).strip("_") or "column"
 
 
-def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit: str) -> Path:
-    """One column's validation figure (module level: runs in a worker process)."""
+def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit: str,
+            simulated: np.ndarray | None = None) -> Path:
+    """One column's validation figure (module level: runs in a worker process), with its
+    `simulated` WVs when they are already computed."""
     from stochmod.plots import save_fit_figure
 
-    return save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=title, unit=unit)
+    return save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=title, unit=unit,
+                           simulated=simulated)
+
+
+def _simulations(fit: GMWMResult, n_sim: int, seed: int, start: int, stop: int) -> np.ndarray:
+    """Series ``start:stop`` of the `n_sim` simulated WVs of a column's figure (module level:
+    runs in a worker process)."""
+    from stochmod.plots import simulated_wv
+
+    return simulated_wv(fit, n_sim, seed, indices=slice(start, stop))
 
 
 def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
              units: dict[str, str], executor: Any = None) -> list[Path]:
-    """The columns' figures, through `executor` when given (each simulates `n_sim` series of
-    the data's length: the figures are calibrate's second largest stage after the fits)."""
+    """The columns' figures, calibrate's second largest stage after the fits: each simulates
+    `n_sim` series of the data's length.
+
+    On a pool, the simulations go to the workers in tasks of :data:`SIMULATIONS_PER_TASK`
+    series, the columns with the most components first (the longest tasks first balance the
+    two workers best), and this process, which would otherwise wait, draws each figure as
+    soon as its simulations are in; the figures are the same as drawn in one piece (series i
+    draws from the i-th child of `seed` however the series are split).
+    """
     import importlib.util
 
     if importlib.util.find_spec("matplotlib") is None:
@@ -163,8 +186,25 @@ def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
             for sel in results]
     if executor is None:
         return [_figure(*job) for job in jobs]
-    futures = [executor.submit(_figure, *job) for job in jobs]
-    return [f.result() for f in futures]
+    if isinstance(executor, SerialExecutor) or n_sim == 0:  # nothing to overlap
+        return [f.result() for f in [executor.submit(_figure, *job) for job in jobs]]
+    spans = [(a, min(a + SIMULATIONS_PER_TASK, n_sim)) for a in range(0, n_sim, SIMULATIONS_PER_TASK)]
+    longest_first = sorted(range(len(jobs)), key=lambda k: -len(results[k].best.model.processes))
+    futures = {executor.submit(_simulations, results[k].best, n_sim, seed, a, b): (k, i)
+               for k in longest_first for i, (a, b) in enumerate(spans)}
+    parts: list[dict[int, np.ndarray]] = [{} for _ in jobs]
+    paths: list[Path] = [job[1] for job in jobs]
+    try:
+        for future in concurrent.futures.as_completed(futures):
+            k, i = futures[future]
+            parts[k][i] = future.result()
+            if len(parts[k]) == len(spans):
+                _figure(*jobs[k], simulated=np.vstack([parts[k][i] for i in range(len(spans))]))
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
+    return paths
 
 
 @contextlib.contextmanager
