@@ -188,11 +188,8 @@ class Problem:
             if found is None and self._vector_point(x, key) is not None:
                 found = self._jacobians[key]
             if found is not None:  # the vector binding's d wv / d vector, then the domains' maps
-                D = found.copy()
-                d = self._vector.derivatives(theta)
-                for s in self._slices:
-                    D[:, s] = D[:, s] @ np.diag(d[s])
-                return D[:, self.mask]
+                # (diagonal: column by column, the digits of the Process path's block products)
+                return (found * self._vector.derivatives(theta))[:, self.mask]
         m = self.model(x)
         D = m.wv_jacobian(self.levels)
         for p, s in zip(m.processes, self._slices):  # times the block-diagonal d vector / d theta
@@ -331,11 +328,11 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     Candidates: the families' guesses and their alternatives, the given `starts`, `n_starts`
     seeded perturbations of the guesses, and the best of `n_random` random points screened by
     the objective. Each candidate first descends the flattened criterion of eq. 34 (cheap,
-    well scaled; :data:`STAGE1_TOLERANCE`; the lean Levenberg-Marquardt of
-    :mod:`stochmod.fit.lsq`, since this stage only ranks points). The candidates and their
-    stage-1 results are ranked by eq. 20; the `n_refine` best whose models' WVs differ (by
-    more than ``_SAME_WV``, relative, at some level), and every given start as it is, are then
-    refined on eq. 20 itself (:func:`refine`, scipy's trf). The best refined point wins.
+    well scaled; :data:`STAGE1_TOLERANCE`). The candidates and their stage-1 results are
+    ranked by eq. 20; the `n_refine` best whose models' WVs differ (by more than
+    ``_SAME_WV``, relative, at some level), and every given start as it is, are then refined
+    on eq. 20 itself (:data:`REFINE_TOLERANCE`). The best refined point wins. Both stages run
+    :func:`refine` with the lean trust-region Levenberg-Marquardt of :mod:`stochmod.fit.lsq`.
 
     Parameters
     ----------
@@ -413,7 +410,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     best: dict[str, Any] | None = None
     for x1 in chosen:
         try:
-            res = refine(problem.residuals, problem.jacobian, x1)
+            res = refine(problem.residuals, problem.jacobian, x1, method="lm")
         except _FAILURES:
             continue
         nfev += res.nfev

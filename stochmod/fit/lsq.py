@@ -2,23 +2,24 @@
 
 A GMWM fit has a handful of free parameters (2 to 10) and about 20 residuals (one per level).
 At that size ``scipy.optimize.least_squares`` (trf) spends more time in its own per-iteration
-machinery (a trust-region subproblem solved by Newton iterations on an SVD, Coleman-Li
-scaling, reflective bounds) than in the model itself. :func:`levenberg_marquardt` is the
-textbook scaled Levenberg-Marquardt iteration instead:
+machinery (Coleman-Li scaling and reflective bounds, generic checks and wrappers) than in the
+model itself. :func:`levenberg_marquardt` keeps trf's trust-region logic and drops the rest:
 
 - variables scaled by the Jacobian's column norms, never decreasing (More, 1978; scipy's
-  ``x_scale="jac"``);
-- one thin SVD of the scaled Jacobian per accepted point, so that every damping tried there
-  costs a matrix-vector product;
-- Nielsen's (1999) update of the damping from the gain ratio (Madsen, Nielsen and Tingleff,
-  *Methods for non-linear least squares problems*, 2004, algorithm 3.16);
+  ``x_scale="jac"``), the first trust region the norm of the scaled start (as scipy);
+- one thin SVD of the scaled Jacobian per accepted point (LAPACK gesdd), so that each trust
+  region tried there costs a few operations on vectors of the parameters' length: the
+  Levenberg-Marquardt parameter whose step fills the region, by More's safeguarded Newton
+  iteration (the Gauss-Newton step when it fits);
+- the region quartered after a poor step (gain ratio below 1/4), doubled after a good one that
+  reached its edge (above 3/4), as scipy's trf;
 - box bounds by projection: a coordinate on a bound that the gradient pushes outwards is held
-  there, the others take the damped step, which is clipped to the box;
+  there, the others take the step, which is clipped to the box;
 - scipy's stopping rules (``ftol``, ``xtol``, ``gtol``, ``max_nfev``) and its result fields, so
   that callers switch between the two without other changes.
 
 A trial point where the residuals cannot be evaluated (non-finite, or one of the failures a
-model raises outside its reach) is a rejected step: the damping grows and the search backs off.
+model raises outside its reach) is a rejected step: the region shrinks and the search backs off.
 """
 
 from __future__ import annotations
@@ -45,8 +46,7 @@ _MESSAGES = {
     4: "both ftol and xtol termination conditions are satisfied",
 }
 _gesdd = lapack.dgesdd  # the thin SVD, without numpy's per-call checks (tiny matrices)
-_TAU = 1e-3  # first damping, relative to the largest squared singular value
-_SHRINK = 1.0 / 3.0  # smallest factor of the damping after a good step
+_RANK = 1e-15  # singular values below this fraction of the largest are null directions
 
 
 def levenberg_marquardt(
@@ -103,7 +103,7 @@ def levenberg_marquardt(
     if not (math.isfinite(cost) and math.isfinite(float(J.sum()))):
         raise ValueError("residuals or Jacobian are not finite at the start")
     scale = _column_norms(J, None)
-    mu, nu = -1.0, 2.0
+    radius = float(np.linalg.norm(x * scale)) or 1.0  # scipy's first trust region
     status = None
     while status is None:
         Js = J / scale
@@ -120,12 +120,15 @@ def levenberg_marquardt(
         if info != 0:
             raise np.linalg.LinAlgError("SVD of the Jacobian did not converge")
         ur = U.T @ r
+        s = np.where(s > _RANK * s[0], s, 0.0)  # the numerically null directions take no step
         s2, sur, ur2 = s * s, s * ur, ur * ur
-        if mu < 0:
-            mu = _TAU * float(s2[0]) if s.size else 1.0
+        g_norm = float(np.linalg.norm(gs))
         x_norm = math.sqrt(float(x @ x))
-        while True:  # dampings at this point until a step is accepted or the search ends
-            step_s = -(Vt.T @ (sur / (s2 + mu)))
+        while True:  # trust regions at this point until a step is accepted or the search ends
+            mu = _damping(s, sur, radius, g_norm)
+            f = s2 / (s2 + mu) if mu > 0 else (s2 > 0).astype(np.float64)
+            step_s = -(Vt.T @ (np.divide(sur, s2 + mu, out=np.zeros_like(sur), where=f > 0)))
+            step_s_norm = float(np.linalg.norm(step_s))
             if free is None:
                 step = step_s / scale
                 x_new = x + step
@@ -135,7 +138,6 @@ def levenberg_marquardt(
                 step[free] = step_s / scale[free]
                 inside = False
             if inside:  # the model's decrease along the step, from the SVD
-                f = s2 / (s2 + mu)
                 predicted = float(f @ ur2) - 0.5 * float((f * f) @ ur2)
             else:  # clipped to the box: from the step itself
                 x_new = np.minimum(np.maximum(x + step, lo), hi)
@@ -148,17 +150,17 @@ def levenberg_marquardt(
             cost_new = math.inf if r_new is None else 0.5 * float(r_new @ r_new)
             actual = cost - cost_new if math.isfinite(cost_new) else -math.inf
             ratio = actual / predicted if predicted > 0 else -1.0
+            if ratio < 0.25:
+                radius = 0.25 * step_s_norm
+            elif ratio > 0.75 and step_s_norm > 0.95 * radius:
+                radius *= 2.0
             status = _termination(actual, cost, step_norm, x_norm, ratio, ftol, xtol)
             if ratio > 0:
-                mu *= max(_SHRINK, 1.0 - (2.0 * ratio - 1.0) ** 3)
-                nu = 2.0
                 break
             if status is None and nfev >= max_nfev:
                 status = 0
             if status is not None:
                 break
-            mu *= nu
-            nu *= 2.0
         if ratio <= 0:  # the search ended on a rejected step: the point stays
             break
         J_new = _trial(jac, x_new)
@@ -177,6 +179,40 @@ def levenberg_marquardt(
             status = 0
     return OptimizeResult(x=x, cost=cost, fun=r, jac=J, nfev=nfev, njev=njev, status=status,
                           success=status > 0 or status == -2, message=_MESSAGES[status])
+
+
+def _damping(s: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> float:
+    """The Levenberg-Marquardt parameter mu >= 0 whose step ``p_i = s_i (U'r)_i / (s_i^2 + mu)``
+    (in the SVD's basis) has norm `radius`, or 0 when the Gauss-Newton step is shorter: More's
+    (1978) safeguarded Newton iteration on ``1/||p(mu)|| - 1/radius``, to 10 % of the radius.
+
+    `s` are the singular values (0 for null directions, which take no step), `sur` = ``s U'r``
+    and `g_norm` = ``||J'r||``, whose ratio to the radius bounds mu from above."""
+    live = s > 0
+    sl, su = s[live] ** 2, sur[live]
+    if not sl.size:
+        return 0.0
+    gn = su / sl
+    norm = math.sqrt(float(gn @ gn))
+    if norm <= radius:
+        return 0.0
+    low, high = 0.0, g_norm / radius
+    mu = max(1e-3 * high, math.sqrt(low * high))
+    for _ in range(10):
+        if not low < mu < high:
+            mu = max(1e-3 * high, math.sqrt(low * high))
+        d = sl + mu
+        p = su / d
+        norm = math.sqrt(float(p @ p))
+        if abs(norm - radius) <= 0.1 * radius:
+            break
+        dnorm = -float((p * p) @ (1.0 / d)) / norm  # d ||p|| / d mu
+        if norm < radius:
+            high = mu
+        else:
+            low = mu
+        mu -= (norm - radius) / dnorm * norm / radius
+    return mu
 
 
 def _column_norms(J: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
