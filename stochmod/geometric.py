@@ -45,6 +45,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.errors import InputError
+from stochmod.signal.haar_jit import AVAILABLE as _JIT
+from stochmod.signal.haar_jit import compiled
 
 __all__ = [
     "WV_PEAK_X",
@@ -361,6 +363,11 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
         if not far.all():
             w[~far], dw[~far] = haar_wv_positive_rows(u[~far], m)
         return w, dw
+    if _JIT:  # the same recursion compiled: a few us instead of ~30 numpy calls
+        w = np.empty((u.size, m.size))
+        dw = np.empty((u.size, m.size))
+        _positive_rows_jit(u, m, inv2m, inv4m, inv8m, _S_COEFS, _G_COEFS, w, dw)
+        return w, dw
     us = u.tolist()
     g_u = [_g_scalar(v) for v in us]
     s_u = [_sinh_minus_id_scalar(v) for v in us]
@@ -378,6 +385,45 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
     w = (2.0 * np.array(s_u)[:, None] + g_over_m) * inv8m / sh2
     dw = inv2m + a * a * inv4m / sh2 - w / np.tanh(half)[:, None]
     return w, dw
+
+
+@compiled
+def _positive_rows_jit(u: np.ndarray, m: np.ndarray, inv2m: np.ndarray, inv4m: np.ndarray,
+                       inv8m: np.ndarray, s_coefs: np.ndarray, g_coefs: np.ndarray,
+                       w: np.ndarray, dw: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The numpy path of :func:`haar_wv_positive_rows` (0 < u <= -log 1e-3, m = 1, 2, 4, ...),
+    row by row in one compiled pass: ``w`` and ``dw`` (K, J) are filled."""
+    for k in range(u.size):
+        v = u[k]
+        if v < 1.0:  # g(u) and sinh(u) - u from their series
+            acc = 0.0
+            for i in range(g_coefs.size - 1, -1, -1):
+                acc = acc * v + g_coefs[i]
+            g = v**3 * acc
+            acc = 0.0
+            vv = v * v
+            for i in range(s_coefs.size - 1, -1, -1):
+                acc = acc * vv + s_coefs[i]
+            smi = v**3 * acc
+        else:
+            e = math.exp(-v)
+            g = 2.0 * v - 3.0 + 4.0 * e - e * e
+            smi = math.sinh(v) - v
+        half = 0.5 * v
+        sh = math.sinh(half)
+        sh2 = sh * sh
+        th = math.tanh(half)
+        term = 0.0
+        for j in range(m.size):
+            minus_x = v * -m[j]
+            e = math.exp(minus_x)
+            a = -math.expm1(minus_x)
+            if j > 0:
+                g += term * inv2m[j - 1]  # g(x_j) / m_j
+            wj = (2.0 * smi + g) * inv8m[j] / sh2
+            w[k, j] = wj
+            dw[k, j] = inv2m[j] + a * a * inv4m[j] / sh2 - wj / th
+            term = a * a * a * (3.0 + e)
 
 
 def _horner(coefs: tuple[float, ...], v: float) -> float:
