@@ -124,15 +124,19 @@ def levenberg_marquardt(
         if info != 0:
             raise np.linalg.LinAlgError("SVD of the Jacobian did not converge")
         ur = U.T @ r
-        s = np.where(s > _RANK * s[0], s, 0.0)  # the numerically null directions take no step
+        if not s[-1] > _RANK * s[0]:  # the numerically null directions take no step
+            live = s > _RANK * s[0]
+            s, ur, Vt = s[live], ur[live], Vt[live]
         s2, sur, ur2 = s * s, s * ur, ur * ur
-        g_norm = float(np.linalg.norm(gs))
+        gn = sur / s2  # the Gauss-Newton step in the SVD's basis
+        gn_norm = math.sqrt(float(gn @ gn))
+        g_norm = math.sqrt(float(gs @ gs))
         x_norm = math.sqrt(float(x @ x))
         while True:  # trust regions at this point until a step is accepted or the search ends
-            mu = _damping(s, sur, radius, g_norm)
-            f = s2 / (s2 + mu) if mu > 0 else (s2 > 0).astype(np.float64)
-            step_s = -(Vt.T @ (np.divide(sur, s2 + mu, out=np.zeros_like(sur), where=f > 0)))
-            step_s_norm = float(np.linalg.norm(step_s))
+            mu = 0.0 if gn_norm <= radius else _damping(s2, sur, radius, g_norm)
+            coef = gn if mu == 0.0 else sur / (s2 + mu)
+            step_s = -(Vt.T @ coef)
+            step_s_norm = math.sqrt(float(coef @ coef))  # V is orthonormal
             if free is None:
                 step = step_s / scale
                 x_new = x + step
@@ -142,7 +146,11 @@ def levenberg_marquardt(
                 step[free] = step_s / scale[free]
                 inside = False
             if inside:  # the model's decrease along the step, from the SVD
-                predicted = float(f @ ur2) - 0.5 * float((f * f) @ ur2)
+                if mu == 0.0:
+                    predicted = 0.5 * float(ur2.sum())
+                else:
+                    f = s2 / (s2 + mu)
+                    predicted = float(f @ ur2) - 0.5 * float((f * f) @ ur2)
             else:  # clipped to the box: from the step itself
                 x_new = np.minimum(np.maximum(x + step, lo), hi)
                 step = x_new - x
@@ -185,28 +193,20 @@ def levenberg_marquardt(
                           success=status > 0 or status == -2, message=_MESSAGES[status])
 
 
-def _damping(s: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> float:
-    """The Levenberg-Marquardt parameter mu >= 0 whose step ``p_i = s_i (U'r)_i / (s_i^2 + mu)``
-    (in the SVD's basis) has norm `radius`, or 0 when the Gauss-Newton step is shorter: More's
+def _damping(s2: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> float:
+    """The Levenberg-Marquardt parameter mu > 0 whose step ``p_i = s_i (U'r)_i / (s_i^2 + mu)``
+    (in the SVD's basis) has norm `radius`, when the Gauss-Newton step is longer: More's
     (1978) safeguarded Newton iteration on ``1/||p(mu)|| - 1/radius``, to 10 % of the radius.
 
-    `s` are the singular values (0 for null directions, which take no step), `sur` = ``s U'r``
-    and `g_norm` = ``||J'r||``, whose ratio to the radius bounds mu from above."""
-    live = s > 0
-    sl, su = s[live] ** 2, sur[live]
-    if not sl.size:
-        return 0.0
-    gn = su / sl
-    norm = math.sqrt(float(gn @ gn))
-    if norm <= radius:
-        return 0.0
+    `s2` are the squared singular values (all positive), `sur` = ``s U'r`` and `g_norm` =
+    ``||J'r||``, whose ratio to the radius bounds mu from above."""
     low, high = 0.0, g_norm / radius
     mu = max(1e-3 * high, math.sqrt(low * high))
     for _ in range(10):
         if not low < mu < high:
             mu = max(1e-3 * high, math.sqrt(low * high))
-        d = sl + mu
-        p = su / d
+        d = s2 + mu
+        p = sur / d
         norm = math.sqrt(float(p @ p))
         if abs(norm - radius) <= 0.1 * radius:
             break
