@@ -366,7 +366,7 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
     if _JIT:  # the same recursion compiled: a few us instead of ~30 numpy calls
         w = np.empty((u.size, m.size))
         dw = np.empty((u.size, m.size))
-        _positive_rows_jit(u, m, inv2m, inv4m, inv8m, _S_COEFS, _G_COEFS, w, dw)
+        _positive_rows_jit(u, m, w, dw)
         return w, dw
     us = u.tolist()
     g_u = [_g_scalar(v) for v in us]
@@ -388,11 +388,16 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
 
 
 @compiled
-def _positive_rows_jit(u: np.ndarray, m: np.ndarray, inv2m: np.ndarray, inv4m: np.ndarray,
-                       inv8m: np.ndarray, s_coefs: np.ndarray, g_coefs: np.ndarray,
-                       w: np.ndarray, dw: np.ndarray) -> None:  # pragma: no cover - compiled
+def _positive_rows_jit(u: np.ndarray, m: np.ndarray, w: np.ndarray,
+                       dw: np.ndarray) -> None:  # pragma: no cover - compiled
     """The numpy path of :func:`haar_wv_positive_rows` (0 < u <= -log 1e-3, m = 1, 2, 4, ...),
-    row by row in one compiled pass: ``w`` and ``dw`` (K, J) are filled."""
+    row by row in one compiled pass: ``w`` and ``dw`` (K, J) are filled. (Few arguments: each
+    costs numba's dispatcher a type check per call; the series' coefficients are constants.)"""
+    s_coefs = _S_COEFS
+    g_coefs = _G_COEFS
+    inv2m = 0.5 / m  # exact: powers of two, as _m_constants
+    inv4m = 0.25 / m
+    inv8m = 0.125 / m
     for k in range(u.size):
         v = u[k]
         if v < 1.0:  # g(u) and sinh(u) - u from their series
