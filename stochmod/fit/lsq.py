@@ -216,6 +216,9 @@ def _damping(s2: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> f
         else:
             low = mu
         mu -= (norm - radius) / dnorm * norm / radius
+    else:  # no iterate within 10 %: the last one, kept inside the bracket
+        if not low < mu < high:
+            mu = max(1e-3 * high, math.sqrt(low * high))
     return mu
 
 
