@@ -3,8 +3,9 @@
 Run: ``python bench/bench_select.py [N]`` (default N = 2,000,000 samples at 100 Hz). The
 selection fits {GM+WN, 2*GM+WN, 3*GM+WN, GM+WN+RW, QN+WN+RW+RR} by the GMWM with one
 weighting matrix (wavelet variance, its eq.-17 covariance and the WVIC included) on the default
-executor (a 2-worker process pool); the peer computes only the overlapping Allan deviation at
-octave averaging times (``allantools.oadev(taus="octave")``). Times are the best of `repeat`.
+executor (for 5 fits, a thread of this process beside eq. 17's); the peer computes only the
+overlapping Allan deviation at octave averaging times (``allantools.oadev(taus="octave")``).
+Times are the best of `repeat`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,9 @@
 Run ``python bench/fit_digits.py dump OUT.json`` with each version (e.g. an older commit
 extracted to a folder and put first on ``PYTHONPATH``, plugins included, run from outside the
 worktree), then ``python bench/fit_digits.py compare A.json B.json``: it lists the fits whose
-``repr`` digits differ and the largest relative change of a parameter.
+``repr`` digits differ with the relative change of their objective (B against A) and the
+largest relative change of a parameter, counts the fits whose parameters moved by more than
+1e-6, and exits with 1 when some objective of B is worse than A's by more than 1e-9.
 
 The 99 cases: ``bench_gmwm``'s signal at 2e5 and 2e6 samples fitted with the five
 ``bench_select`` candidates (and 2*GM+WN with the optimal weighting at 2e5); three
@@ -28,6 +30,10 @@ from stochmod.fit.gmwm import gmwm
 from stochmod.fit.selection import select
 
 REPS = 3
+#: A case whose objective is higher than the reference's by more than this (relative) is worse.
+WORSE = 1e-9
+#: A fit whose parameters moved by more than this (relative) counts as moved.
+MOVED = 1e-6
 
 
 def _digits(fit) -> dict:
@@ -59,30 +65,45 @@ def dump(path: str) -> None:
     for row in res.ranking:
         out[f"lattice/{row.model}"] = {"obj": repr(float(row.objective)), "crit": repr(float(row.criterion))}
     out["lattice/best"] = {"v": [repr(float(v)) for v in res.best.model.vector()]}
+    out["lattice/order"] = {"models": [row.model for row in res.ranking]}
     with open(path, "w") as f:
         json.dump(out, f, indent=0)
 
 
 def compare(path_a: str, path_b: str) -> int:
-    """Print the cases whose digits differ; return how many."""
+    """Print the cases whose digits differ, each objective's relative change (B over A) and the
+    largest relative change of a parameter; return how many cases have B's objective worse
+    than A's by more than :data:`WORSE` (relative)."""
     with open(path_a) as f:
         a = json.load(f)
     with open(path_b) as f:
         b = json.load(f)
-    differ, worst = 0, 0.0
+    differ, moved, worse, worst, obj_low, obj_high = 0, 0, 0, 0.0, 0.0, 0.0
     for key, ea in a.items():
         eb = b.get(key)
         if ea == eb:
             continue
         differ += 1
-        if eb is not None and "v" in ea and "v" in eb:
+        if eb is None:
+            print(f"{key}: missing in {path_b}")
+            worse += 1
+            continue
+        parts = []
+        if "obj" in ea and "obj" in eb:
+            change = (float(eb["obj"]) - float(ea["obj"])) / abs(float(ea["obj"]))
+            obj_low, obj_high = min(obj_low, change), max(obj_high, change)
+            worse += change > WORSE
+            parts.append(f"objective {change:+.3g}{' WORSE' if change > WORSE else ''}")
+        if "v" in ea and "v" in eb:
             rel = max(abs(float(p) - float(q)) / abs(float(p)) for p, q in zip(ea["v"], eb["v"]))
             worst = max(worst, rel)
-            print(f"{key}: largest relative change {rel:.3g}; objective {ea.get('obj')} -> {eb.get('obj')}")
-        else:
-            print(f"{key}: {ea} -> {eb}")
-    print(f"{len(a) - differ} of {len(a)} identical; largest relative parameter change {worst:.3g}")
-    return differ
+            moved += rel > MOVED
+            parts.append(f"largest relative parameter change {rel:.3g}")
+        print(f"{key}: " + "; ".join(parts or [f"{ea} -> {eb}"]))
+    print(f"{len(a) - differ} of {len(a)} identical; objective relative change from {obj_low:+.3g} "
+          f"to {obj_high:+.3g}, {worse} worse by more than {WORSE:g}; {moved} fits with a "
+          f"parameter moved by more than {MOVED:g} (relative), largest {worst:.3g}")
+    return worse
 
 
 if __name__ == "__main__":

@@ -45,6 +45,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.errors import InputError
+from stochmod.signal.haar_jit import AVAILABLE as _JIT
+from stochmod.signal.haar_jit import compiled
 
 __all__ = [
     "WV_PEAK_X",
@@ -288,9 +290,8 @@ def haar_wv_geometric_parts(log_z: ArrayLike, m: ArrayLike, *, sign: ArrayLike =
 
 def haar_wv_positive(u: float, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``W_m(e^{-u})`` and ``dW/du`` for one real ``u > 0`` over many m: the fast path of a
-    first-order Gauss-Markov process inside an optimiser (same formulas as
-    :func:`haar_wv_geometric` and :func:`haar_wv_geometric_dlog`, without the complex and
-    sign machinery). Falls back to them when ``z = e^{-u} < 1e-3``.
+    first-order Gauss-Markov process inside an optimiser, :func:`haar_wv_positive_rows` with
+    one row (the same digits as that row of any call).
 
     Parameters
     ----------
@@ -301,109 +302,176 @@ def haar_wv_positive(u: float, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     if not u > 0 or not math.isfinite(u):
         raise InputError(f"u must be a positive finite number, got {u!r}")
-    if u > -_SMALL_Z_LOG:
-        return haar_wv_geometric(-u, m), -haar_wv_geometric_dlog(-u, m)
-    m = np.asarray(m, dtype=np.float64)
-    x = m * u
-    sh = math.sinh(0.5 * u)
-    smi = float(_sinh_minus_id(np.array([u]))[0])
-    w = (2.0 * m * smi + _g(x)) / (8.0 * m * m * sh * sh)
-    a = -np.expm1(-x)
-    dw = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - w / math.tanh(0.5 * u)
-    return w, dw
+    w, dw = haar_wv_positive_rows(np.array([u], dtype=np.float64), m)
+    return w[0], dw[0]
 
 
 def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`haar_wv_positive` for many ``u`` at once: row k of each result is, bit for bit,
-    ``haar_wv_positive(u[k], m)`` (an optimizer's model with several Gauss-Markov terms, or a
-    screen of many candidate points, in one call).
+    """``W_m(e^{-u})`` and ``dW/du`` for many real ``u > 0`` at once (an optimizer's model with
+    several Gauss-Markov terms, or a screen of many candidate points, in one call), at the
+    Haar half-widths ``m = 1, 2, 4, ...``.
 
-    The elementwise steps run on the whole (K, J) grid; the two power series, whose matrix
-    products round differently with the number of rows, are summed row by row with the same
-    shapes as the one-``u`` function, so the digits do not depend on K.
+    The formula of :func:`haar_wv_geometric` for a positive z,
+    ``W = [2m (sinh u - u) + g(m u)] / (8 m^2 sinh^2(u/2))``, with ``g`` at the doubled
+    arguments from the exact recursion ``g(2x) = 2 g(x) + (1 - e^{-x})^3 (3 + e^{-x})``:
+    with ``x_j = m_j u``, ``g(x_j) / m_j = g(u) + sum_{i<j} (1 - e^{-x_i})^3 (3 + e^{-x_i}) / m_{i+1}``,
+    a cumulative sum of positive terms (no cancellation at any level, a few ulps). ``g(u)``
+    and ``sinh u - u`` come from their Taylor series where u < 1. ``dW/du`` is
+    :func:`haar_wv_geometric_dlog`'s ``1/(2m) + (1 - e^{-mu})^2 / (4 m sinh^2(u/2)) - W coth(u/2)``.
+    Every step is elementwise on the (K, J) grid or a sum along one row, so row k is, bit for
+    bit, the same whatever the other rows. Rows with ``z = e^{-u} < 1e-3`` go through
+    :func:`haar_wv_geometric` (the polynomial).
 
     Parameters
     ----------
     u : ndarray of float, shape (K,)
         ``-log z > 0`` per row (``beta / freq`` for Gauss-Markov processes).
     m : ndarray of float, shape (J,)
-        Samples per half Haar filter (``2^(j-1)``).
+        Samples per half Haar filter, ``m_j = 2^(j-1)`` for j = 1..J (other powers of two are
+        taken from that ladder; other integers from :func:`haar_wv_geometric`).
 
     Returns
     -------
     W, dW_du : ndarray, shape (K, J)
         ``W_m(e^{-u})`` and ``dW/du`` (dimensionless).
+
+    Raises
+    ------
+    InputError
+        A `u` that is not a positive finite number, or an `m` below 1.
     """
     u = np.asarray(u, dtype=np.float64).reshape(-1)
     m = np.asarray(m, dtype=np.float64).reshape(-1)
-    us = u.tolist()
-    for v in us:
-        if not (v > 0 and math.isfinite(v)):
-            raise InputError(f"u must be positive finite numbers, got {v!r}")
-    if any(v > -_SMALL_Z_LOG for v in us):  # z < 1e-3: the polynomial path, row by row
+    low, high = (float(u.min()), float(u.max())) if u.size else (1.0, 1.0)
+    if not (low > 0 and high < math.inf):
+        bad = u[~((u > 0) & (u < math.inf))]
+        raise InputError(f"u must be positive finite numbers, got {bad[0]!r}")
+    ladder = _ladder(m.tobytes())
+    if ladder is None:  # not powers of two: the general closed form, elementwise
+        return haar_wv_geometric(-u[:, None], m), -haar_wv_geometric_dlog(-u[:, None], m)
+    if ladder.size != m.size or ladder[-1] != m.size - 1:  # some of 1, 2, 4, ...: from all
+        w, dw = haar_wv_positive_rows(u, 2.0 ** np.arange(int(ladder.max()) + 1))
+        return w[:, ladder], dw[:, ladder]
+    inv2m, inv4m, inv8m = _m_constants(m.size)
+    if high > -_SMALL_Z_LOG:  # z < 1e-3: the polynomial, elementwise too
+        far = u > -_SMALL_Z_LOG
         w = np.empty((u.size, m.size))
         dw = np.empty((u.size, m.size))
-        far = [k for k, v in enumerate(us) if v > -_SMALL_Z_LOG]
-        for k in far:
-            w[k], dw[k] = haar_wv_positive(us[k], m)
-        near = [k for k, v in enumerate(us) if not v > -_SMALL_Z_LOG]
-        if near:
-            w[near], dw[near] = haar_wv_positive_rows(u[near], m)
+        uf = -u[far][:, None]
+        w[far] = haar_wv_geometric(uf, m)
+        dw[far] = -haar_wv_geometric_dlog(uf, m)
+        if not far.all():
+            w[~far], dw[~far] = haar_wv_positive_rows(u[~far], m)
         return w, dw
-    m2, m8, inv2m, m4 = _m_constants(m.tobytes())
-    x = u[:, None] * m
-    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value (the cube
-    # and the product are elementwise: taken for every row at once)
-    smi = np.sinh(u) - u
-    uu, u3 = u * u, u**3
-    for i, v in enumerate(us):
-        if v < 1.0:
-            smi[i] = float(u3[i]) * float(_power_series(_S_COEFS, uu[i : i + 1])[0])
-    # g(x): the direct form, then the series where x < 1 (row by row, as _g does for one u)
-    e = np.exp(-x)
-    g = 2.0 * x - 3.0 + 4.0 * e - e * e
-    small = x < 1.0
-    xs = x[small]  # row after row
-    if xs.size:
-        ends = np.cumsum(small.sum(axis=1)).tolist()
-        series = [_power_series(_G_COEFS, xs[a:b]) for a, b in zip([0, *ends[:-1]], ends) if b > a]
-        g[small] = xs**3 * np.concatenate(series)
-    sh = np.array([math.sinh(0.5 * v) for v in us])[:, None]
-    th = np.array([math.tanh(0.5 * v) for v in us])[:, None]
-    w = (m2 * smi[:, None] + g) / (m8 * sh * sh)
-    a = -np.expm1(-x)
-    dw = inv2m + a * a / (m4 * sh * sh) - w / th
+    if _JIT:  # the same recursion compiled: a few us instead of ~30 numpy calls
+        w = np.empty((u.size, m.size))
+        dw = np.empty((u.size, m.size))
+        _positive_rows_jit(u, m, w, dw)
+        return w, dw
+    us = u.tolist()
+    g_u = [_g_scalar(v) for v in us]
+    s_u = [_sinh_minus_id_scalar(v) for v in us]
+    minus_x = u[:, None] * -m
+    e = np.exp(minus_x)
+    a = -np.expm1(minus_x)  # 1 - e^{-x}
+    # g(x_j) / m_j: the recursion's terms, halved at each level, summed along the row
+    terms = np.empty_like(minus_x)
+    terms[:, 0] = g_u
+    terms[:, 1:] = (a[:, :-1] * a[:, :-1] * a[:, :-1] * (3.0 + e[:, :-1])) * inv2m[:-1]
+    g_over_m = np.cumsum(terms, axis=1)
+    half = 0.5 * u
+    sh = np.sinh(half)
+    sh2 = (sh * sh)[:, None]
+    w = (2.0 * np.array(s_u)[:, None] + g_over_m) * inv8m / sh2
+    dw = inv2m + a * a * inv4m / sh2 - w / np.tanh(half)[:, None]
     return w, dw
+
+
+@compiled
+def _positive_rows_jit(u: np.ndarray, m: np.ndarray, w: np.ndarray,
+                       dw: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The numpy path of :func:`haar_wv_positive_rows` (0 < u <= -log 1e-3, m = 1, 2, 4, ...),
+    row by row in one compiled pass: ``w`` and ``dw`` (K, J) are filled. (Few arguments: each
+    costs numba's dispatcher a type check per call; the series' coefficients are constants.)"""
+    s_coefs = _S_COEFS
+    g_coefs = _G_COEFS
+    inv2m = 0.5 / m  # exact: powers of two, as _m_constants
+    inv4m = 0.25 / m
+    inv8m = 0.125 / m
+    for k in range(u.size):
+        v = u[k]
+        if v < 1.0:  # g(u) and sinh(u) - u from their series
+            acc = 0.0
+            for i in range(g_coefs.size - 1, -1, -1):
+                acc = acc * v + g_coefs[i]
+            g = v**3 * acc
+            acc = 0.0
+            vv = v * v
+            for i in range(s_coefs.size - 1, -1, -1):
+                acc = acc * vv + s_coefs[i]
+            smi = v**3 * acc
+        else:
+            e = math.exp(-v)
+            g = 2.0 * v - 3.0 + 4.0 * e - e * e
+            smi = math.sinh(v) - v
+        half = 0.5 * v
+        sh = math.sinh(half)
+        sh2 = sh * sh
+        th = math.tanh(half)
+        term = 0.0
+        for j in range(m.size):
+            minus_x = v * -m[j]
+            e = math.exp(minus_x)
+            a = -math.expm1(minus_x)
+            if j > 0:
+                g += term * inv2m[j - 1]  # g(x_j) / m_j
+            wj = (2.0 * smi + g) * inv8m[j] / sh2
+            w[k, j] = wj
+            dw[k, j] = inv2m[j] + a * a * inv4m[j] / sh2 - wj / th
+            term = a * a * a * (3.0 + e)
+
+
+def _horner(coefs: tuple[float, ...], v: float) -> float:
+    """``sum_k coefs[k] v^k`` for one float (Horner's scheme)."""
+    out = 0.0
+    for c in reversed(coefs):
+        out = out * v + c
+    return out
+
+
+_S_TUPLE = tuple(_S_COEFS.tolist())
+_G_TUPLE = tuple(_G_COEFS.tolist())
+
+
+def _sinh_minus_id_scalar(v: float) -> float:
+    """``sinh(v) - v`` for one float without cancellation (series for |v| < 1)."""
+    return v**3 * _horner(_S_TUPLE, v * v) if abs(v) < 1.0 else math.sinh(v) - v
+
+
+def _g_scalar(x: float) -> float:
+    """``g(x) = 2x - 3 + 4 exp(-x) - exp(-2x)`` for one float x >= 0 (series for x < 1)."""
+    if x < 1.0:
+        return x**3 * _horner(_G_TUPLE, x)
+    e = math.exp(-x)
+    return 2.0 * x - 3.0 + 4.0 * e - e * e
+
+
+@functools.lru_cache(maxsize=16)
+def _ladder(m_bytes: bytes) -> np.ndarray | None:
+    """``log2 m`` when every half-width m is a power of two, else None."""
+    m = np.frombuffer(m_bytes, dtype=np.float64)
+    if not np.all(np.isfinite(m) & (m >= 1)):
+        raise InputError(f"m must be positive integers (samples per half Haar filter), got {m!r}")
+    mantissa, exponent = np.frexp(m)
+    return (exponent - 1).astype(np.intp) if np.all(mantissa == 0.5) else None
 
 
 @functools.lru_cache(maxsize=8)
-def _m_constants(m_bytes: bytes) -> tuple[np.ndarray, ...]:
-    """``2m``, ``8 m m``, ``1 / (2m)`` and ``4m``, computed as :func:`haar_wv_positive`
-    computes them (the same operations, so the same digits), once per set of half-widths."""
-    m = np.frombuffer(m_bytes, dtype=np.float64)
-    out = (2.0 * m, 8.0 * m * m, 1.0 / (2.0 * m), 4.0 * m)
-    for a in out:  # shared by every call
+def _m_constants(levels: int) -> tuple[np.ndarray, ...]:
+    """``1 / (2m)``, ``1 / (4m)`` and ``1 / (8m)`` at ``m = 1, 2, 4, ...`` (`levels` of them;
+    exact: powers of two), shared by every call."""
+    m = 2.0 ** np.arange(levels)
+    out = (0.5 / m, 0.25 / m, 0.125 / m)
+    for a in out:
         a.flags.writeable = False
     return out
-    un = u[near]
-    x = un[:, None] * m
-    # sinh(u) - u: the series where u < 1, as _sinh_minus_id does for one value
-    smi = np.sinh(un) - un
-    for i in np.flatnonzero(un < 1.0):
-        us = un[i : i + 1]
-        smi[i] = (us**3 * _power_series(_S_COEFS, us * us))[0]
-    # g(x): the direct form, then the series where x < 1, row by row as _g does
-    e = np.exp(-x)
-    g = 2.0 * x - 3.0 + 4.0 * e - e * e
-    small = x < 1.0
-    for i in np.flatnonzero(small.any(axis=1)):
-        xs = x[i][small[i]]
-        g[i, small[i]] = xs**3 * _power_series(_G_COEFS, xs)
-    half = [0.5 * float(v) for v in un]
-    sh = np.array([math.sinh(h) for h in half])[:, None]
-    th = np.array([math.tanh(h) for h in half])[:, None]
-    wn = (2.0 * m * smi[:, None] + g) / (8.0 * m * m * sh * sh)
-    a = -np.expm1(-x)
-    w[near] = wn
-    dw[near] = 1.0 / (2.0 * m) + a * a / (4.0 * m * sh * sh) - wn / th
-    return w, dw

@@ -25,6 +25,7 @@ from stochmod.geometric import (
     haar_wv_geometric,
     haar_wv_geometric_dlog,
     haar_wv_geometric_parts,
+    haar_wv_positive_rows,
     log1p_complex,
 )
 
@@ -200,3 +201,36 @@ def test_bad_input_raises(log_z, m):
 def test_bad_sign_raises():
     with pytest.raises(InputError, match="sign"):
         haar_wv_geometric(-1.0, 1, sign=2)
+
+
+# ----------------------------------------------------------------- the Gauss-Markov fast path
+@settings(max_examples=40, deadline=None)
+@given(log_u=st.floats(-10.0, 0.8), j=st.integers(1, 31))
+@example(log_u=-10.0, j=31)  # the recursion's longest sum of the doubling terms
+@example(log_u=-0.3, j=1)  # g(u) and sinh(u) - u from the direct forms
+def test_positive_rows_match_mpmath_and_their_derivative(log_u, j):
+    """The doubling recursion of g (haar_wv_positive_rows) keeps a few ulps at every level,
+    and dW/du matches mpmath's derivative of the closed form."""
+    u = 10.0**log_u
+    w, dw = haar_wv_positive_rows(np.array([u]), 2.0 ** np.arange(j))
+    m = 2 ** (j - 1)
+    assert rel_err(w[0, -1], reference(-u, m)) <= 1e-15
+    with mp.workdps(80):
+        ref = -mp.diff(lambda lz: mp_closed(mp.exp(lz), m), mp.mpf(-u))
+        scale = abs(mp_closed(mp.exp(mp.mpf(-u)), m)) / u
+        assert float(abs(dw[0, -1] - ref) / max(abs(ref), scale * 1e-3)) <= 1e-10
+
+
+def test_positive_rows_take_any_half_widths() -> None:
+    """Some of 1, 2, 4, ... come from the full ladder; other integers from haar_wv_geometric."""
+    u = np.array([3e-4, 0.2, 7.5])  # the last one: z < 1e-3, the polynomial
+    w, dw = haar_wv_positive_rows(u, 2.0 ** np.arange(12))
+    ws, dws = haar_wv_positive_rows(u, np.array([8.0, 2048.0, 1.0]))
+    np.testing.assert_array_equal(ws, w[:, [3, 11, 0]])
+    np.testing.assert_array_equal(dws, dw[:, [3, 11, 0]])
+    wo, _ = haar_wv_positive_rows(u, np.array([3.0, 5.0]))
+    for i in range(u.size):
+        for k, m in enumerate((3, 5)):
+            assert rel_err(wo[i, k], reference(-u[i], m)) <= TOL
+    with pytest.raises(InputError, match="m must be positive"):
+        haar_wv_positive_rows(u, np.array([0.0, 1.0]))

@@ -141,6 +141,30 @@ def test_thread_and_process_pools_give_the_same_ranking(threads):
     assert a.best.model.to_spec() == d.best.model.to_spec()
 
 
+def test_default_executor_keeps_a_few_fits_in_this_process(threads, monkeypatch):
+    """Up to 8 fits (candidates x columns) and no executor: the fits run on a thread of this
+    process, with the same ranking as on a process pool; more fits start 2 worker processes."""
+    import stochmod.fit.selection as selection_module
+
+    x = QWR.simulate(2**13, rng=6)
+    kwargs = {"candidates": QWR_CANDIDATES[:4], "rng": 3}
+    with ProcessPoolExecutor(2) as pool:
+        on_pool = select(x, FREQ, executor=pool, **kwargs)
+    started: list[int] = []
+
+    class Refused(ProcessPoolExecutor):
+        def __init__(self, max_workers: int) -> None:
+            started.append(max_workers)
+            super().__init__(max_workers)
+
+    monkeypatch.setattr(selection_module.concurrent.futures, "ProcessPoolExecutor", Refused)
+    assert _ranking(select(x, FREQ, **kwargs)) == _ranking(on_pool) and started == []
+    both = select(np.column_stack([x, x[::-1]]), FREQ, **kwargs)  # 8 fits: still here
+    assert started == [] and _ranking(both[0]) == _ranking(on_pool)
+    select(np.column_stack([x, x[::-1], x]), FREQ, **kwargs)  # 12 fits: a process pool
+    assert started == [2]
+
+
 def test_dask_distributed_executor_works_unchanged():
     # a dask.distributed client's executor on a local cluster of worker processes: the fits are
     # pickled to other processes and come back through dask futures; same ranking as the default

@@ -11,6 +11,7 @@ import stochmod
 from stochmod.errors import DomainError, InputError
 from stochmod.fit.engine import Problem
 from stochmod.fit.vector_binding import VectorBinding
+from stochmod import geometric
 from stochmod.geometric import haar_wv_positive, haar_wv_positive_rows
 from stochmod.process import Process, wv_rows_domains
 
@@ -21,7 +22,34 @@ def _bits(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
 
 
-def test_haar_wv_positive_rows_is_the_one_u_function_bit_for_bit() -> None:
+@pytest.fixture(params=["compiled", "numpy"])
+def gm_path(request, monkeypatch) -> str:
+    """Each path of haar_wv_positive_rows: the compiled recursion (numba) and the numpy one."""
+    if request.param == "compiled" and not geometric._JIT:
+        pytest.skip("numba is not available")
+    monkeypatch.setattr(geometric, "_JIT", request.param == "compiled")
+    return request.param
+
+
+def test_compiled_and_numpy_gm_paths_agree(monkeypatch) -> None:
+    """The compiled closed form and the numpy fallback: the same recursion, libm's and
+    numpy's exp/expm1/sinh/tanh (a few ulps apart)."""
+    if not geometric._JIT:
+        pytest.skip("numba is not available")
+    rng = np.random.default_rng(5)
+    u = np.concatenate([10.0 ** rng.uniform(-12, 0, 60), rng.uniform(1, 6.9, 10)])
+    m = 2.0 ** np.arange(30)
+    w, dw = haar_wv_positive_rows(u, m)
+    monkeypatch.setattr(geometric, "_JIT", False)
+    w0, dw0 = haar_wv_positive_rows(u, m)
+    np.testing.assert_allclose(w, w0, rtol=1e-14, atol=0)
+    # dW/du = 1/(2m) + ... - W coth(u/2) crosses zero at W's maximum over u: on the scale
+    # of its largest term
+    terms = 0.5 / m + w / np.tanh(0.5 * u)[:, None]
+    assert np.all(np.abs(dw - dw0) <= 1e-14 * terms)
+
+
+def test_haar_wv_positive_rows_is_the_one_u_function_bit_for_bit(gm_path: str) -> None:
     rng = np.random.default_rng(11)
     m = 2.0 ** np.arange(22)
     # slow processes (series at most levels), fast ones, and z < 1e-3 (the polynomial path)

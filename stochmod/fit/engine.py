@@ -31,6 +31,7 @@ import numpy as np
 from scipy import optimize
 
 from stochmod.errors import EstimationError, SpecError
+from stochmod.fit.lsq import levenberg_marquardt
 from stochmod.fit.vector_binding import VectorBinding
 from stochmod.model import Model, as_model, model_from_spec
 from stochmod.process import Process
@@ -59,8 +60,14 @@ STAGE1_TOLERANCE = (1e-8, 100)
 #: (tolerance, evaluation cap) of the refinement on eq. 20.
 REFINE_TOLERANCE = (1e-12, 2000)
 
+
 #: Points whose model and binding value a :class:`Problem` remembers.
 _REMEMBERED = 4
+
+#: Two stage-1 points whose models' WVs agree to this (relative, every level) count as one:
+#: they differ only along directions the WV does not see (a component shrunk to nothing,
+#: two components swapped), and refining both would find one optimum twice.
+_SAME_WV = 1e-3
 
 _FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError)
 #: The methods of :class:`Problem` that define its binding: a subclass that overrides one
@@ -181,11 +188,8 @@ class Problem:
             if found is None and self._vector_point(x, key) is not None:
                 found = self._jacobians[key]
             if found is not None:  # the vector binding's d wv / d vector, then the domains' maps
-                D = found.copy()
-                d = self._vector.derivatives(theta)
-                for s in self._slices:
-                    D[:, s] = D[:, s] @ np.diag(d[s])
-                return D[:, self.mask]
+                # (diagonal: column by column, the digits of the Process path's block products)
+                return (found * self._vector.derivatives(theta))[:, self.mask]
         m = self.model(x)
         D = m.wv_jacobian(self.levels)
         for p, s in zip(m.processes, self._slices):  # times the block-diagonal d vector / d theta
@@ -279,17 +283,24 @@ class SearchResult:
 
 def refine(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray],
            x0: np.ndarray, tol: float = REFINE_TOLERANCE[0], max_nfev: int = REFINE_TOLERANCE[1],
-           *, callback: Callable[..., Any] | None = None) -> optimize.OptimizeResult:
-    """One bounded local least-squares search (``scipy.optimize.least_squares``, trf, Jacobian
-    scaling) from `x0` clipped to ``[-BOUND, BOUND]``, with `tol` as xtol, ftol and gtol.
+           *, callback: Callable[..., Any] | None = None, method: str = "trf"
+           ) -> optimize.OptimizeResult:
+    """One bounded local least-squares search from `x0` clipped to ``[-BOUND, BOUND]``, with
+    `tol` as xtol, ftol and gtol.
 
-    `callback` (scipy >= 1.16) may stop the search by raising ``StopIteration``. Floating
-    point warnings of the model's evaluations are silenced (a trial step may leave a
-    family's reach; the search then backs off).
+    `method` ``"trf"``: ``scipy.optimize.least_squares`` (trf, Jacobian scaling); ``"lm"``: the
+    lean Levenberg-Marquardt of :mod:`stochmod.fit.lsq` (same stopping rules and result fields,
+    a fraction of scipy's overhead per iteration on these small problems). `callback` (scipy >=
+    1.16 for trf) may stop the search by raising ``StopIteration``. Floating point warnings of
+    the model's evaluations are silenced (a trial step may leave a family's reach; the search
+    then backs off).
     """
-    extra = {} if callback is None else {"callback": callback}
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
+        if method == "lm":
+            return levenberg_marquardt(fun, jac, x0, (-BOUND, BOUND), ftol=tol, xtol=tol, gtol=tol,
+                                       max_nfev=max_nfev, callback=callback)
+        extra = {} if callback is None else {"callback": callback}
         return optimize.least_squares(
             fun, np.clip(x0, -BOUND, BOUND), jac=jac, bounds=(-BOUND, BOUND),
             method="trf", x_scale="jac", xtol=tol, ftol=tol, gtol=tol, max_nfev=max_nfev, **extra,
@@ -317,9 +328,11 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     Candidates: the families' guesses and their alternatives, the given `starts`, `n_starts`
     seeded perturbations of the guesses, and the best of `n_random` random points screened by
     the objective. Each candidate first descends the flattened criterion of eq. 34 (cheap,
-    well scaled; :data:`STAGE1_TOLERANCE`); the `n_refine` best distinct results (by eq. 20),
-    and every given start as it is, are then refined on eq. 20 itself (:func:`refine`). The
-    best refined point wins.
+    well scaled; :data:`STAGE1_TOLERANCE`). The candidates and their stage-1 results are
+    ranked by eq. 20; the `n_refine` best whose models' WVs differ (by more than
+    ``_SAME_WV``, relative, at some level), and every given start as it is, are then refined
+    on eq. 20 itself (:data:`REFINE_TOLERANCE`). The best refined point wins. Both stages run
+    :func:`refine` with the lean trust-region Levenberg-Marquardt of :mod:`stochmod.fit.lsq`.
 
     Parameters
     ----------
@@ -374,7 +387,8 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     stage1: list[tuple[float, np.ndarray]] = [(problem.safe_objective(x), x) for x in given]
     for x0 in candidates:
         try:
-            flat = refine(problem.flat_residuals, problem.flat_jacobian, x0, *STAGE1_TOLERANCE)
+            flat = refine(problem.flat_residuals, problem.flat_jacobian, x0, *STAGE1_TOLERANCE,
+                          method="lm")
         except _FAILURES:
             continue
         nfev += flat.nfev
@@ -383,9 +397,12 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     stage1 = [(v, x) for v, x in stage1 if np.isfinite(v)]
     stage1.sort(key=lambda item: item[0])
     chosen: list[np.ndarray] = []
+    seen: list[np.ndarray] = []  # their models' WVs
     for _, x in stage1:
-        if not any(np.allclose(x, c, rtol=1e-3, atol=1e-3) for c in chosen):
+        wv = problem.phi(x)
+        if not any(np.allclose(wv, c, rtol=_SAME_WV, atol=0.0) for c in seen):
             chosen.append(x)
+            seen.append(wv)
         if len(chosen) >= n_refine:
             break
     chosen.extend(g for g in given if not any(g is c for c in chosen))
@@ -393,7 +410,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     best: dict[str, Any] | None = None
     for x1 in chosen:
         try:
-            res = refine(problem.residuals, problem.jacobian, x1)
+            res = refine(problem.residuals, problem.jacobian, x1, method="lm")
         except _FAILURES:
             continue
         nfev += res.nfev

@@ -68,6 +68,10 @@ def __getattr__(name: str) -> Any:
 
 
 _AUTO_PROGRESS = 8  # progress bar by default above this many fits
+#: Without an executor, up to this many fits run on a thread of this process (beside V's
+#: thread): a handful of fits costs less CPU than starting worker processes and pickling
+#: their tasks and results, and leaves the cores to eq. 17.
+_POOL_FITS = 8
 _NEGLIGIBLE = 1e-30  # relative size of a padded component's WV (objective unchanged in float64)
 _ROOT_SEARCH = (6, 200)  # gmwm's (n_starts, n_random) for a candidate without fitted parent
 _PARENT_STARTS = 2  # a child starts from its best parents' fits (smallest objectives first)
@@ -544,15 +548,22 @@ def _progress(total: int, progress: bool | None, desc: str) -> Iterator[Any]:
 
 
 @contextlib.contextmanager
-def _executor(executor: Any) -> Iterator[Any]:
+def _executor(executor: Any, n_fits: int) -> Iterator[tuple[Any, bool]]:
+    """The executor of the fits, and whether it runs in or beside this process (then the WV is
+    taken here and V runs on a thread of this process, beside the fits). The default: a
+    thread of this process for at most ``_POOL_FITS`` fits, else 2 worker processes."""
     if executor is None:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
-            yield pool
+        if n_fits <= _POOL_FITS:
+            with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
+                yield pool, True
+        else:
+            with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
+                yield pool, True
     else:
         if not callable(getattr(executor, "submit", None)):
             raise InputError(f"executor must be a concurrent.futures.Executor (with .submit), "
                              f"got {executor!r}")
-        yield executor
+        yield executor, isinstance(executor, concurrent.futures.ProcessPoolExecutor)
 
 
 def _signals(x: Any, freq: float | None, names: Sequence[str] | None
@@ -625,7 +636,8 @@ def select(
         signal.
     executor : concurrent.futures.Executor, optional
         Runs the fits through ``executor.submit`` (thread or process pools, a dask client's
-        ``get_executor()`` ...). Default: a ProcessPoolExecutor with 2 workers, shut down on
+        ``get_executor()`` ...). Default: for more than 8 fits (candidates times columns) a
+        ProcessPoolExecutor with 2 workers, for fewer a thread of this process, shut down on
         return.
     progress : bool, optional
         Show a tqdm progress bar (None: only when there are more than 8 fits and stderr is
@@ -690,9 +702,9 @@ def select(
         if not node["model"].free_mask().any():
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
-    with _executor(executor) as pool, _progress(n_fits, progress, "select") as bar, \
+    with _executor(executor, n_fits) as (pool, local), \
+            _progress(n_fits, progress, "select") as bar, \
             concurrent.futures.ThreadPoolExecutor(1) as here:
-        local = isinstance(pool, concurrent.futures.ProcessPoolExecutor)
         if prepared is not None:
             shared = prepared
         elif scheme.needs_signal or not local:

@@ -111,7 +111,10 @@ class VectorBinding:
         parts: list[np.ndarray | None] = [None] * len(self.slices)
         jac = np.empty((P, self.levels, self.n_params))
         for proto, ks in self._families:
-            rows = np.concatenate([values[:, self.slices[k]] for k in ks])
+            if len(ks) == 1:
+                rows = values[:, self.slices[ks[0]]]
+            else:
+                rows = np.concatenate([values[:, self.slices[k]] for k in ks])
             wv, dwv = proto.haar_wv_rows(rows, self.levels, self.freq)
             for i, k in enumerate(ks):
                 parts[k] = wv[i * P : (i + 1) * P]
