@@ -19,7 +19,7 @@ complex one of half the length; Press et al., Numerical Recipes, 2nd ed., sec. 1
 ``(0, -k2 mod n2)`` in row 0, and writes the powers in that same order, which the Gram matrix
 of eq. 17 does not see (it sums over all frequencies). With ``n1 = 1`` it is the natural order
 (:func:`half_spectrum_power`). :func:`twiddle_block` is the four-step's multiply between its two
-passes of short transforms. One compiled pass reads each pair once and writes both powers;
+passes of short transforms; :func:`power_gram` the Gram matrix of the levels' powers. One compiled pass reads each pair once and writes both powers;
 numpy would need about eight passes (so without numba, :mod:`stochmod.signal.wv_covariance`
 keeps scipy's real transform).
 
@@ -35,7 +35,7 @@ import numpy as np
 
 from stochmod.signal.haar_jit import compiled
 
-__all__ = ["half_spectrum_power", "split_power", "twiddle_block", "twiddles"]
+__all__ = ["half_spectrum_power", "power_gram", "split_power", "twiddle_block", "twiddles"]
 
 _UNIT = np.array([[1.0, 0.0]], dtype=np.float32)  # (cos, sin) of the one row of a 1 x H layout
 
@@ -125,3 +125,45 @@ def twiddle_block(block: np.ndarray, b: int, low: np.ndarray,
             xr = np.float64(row[j].real)
             xi = np.float64(row[j].imag)
             row[j] = complex(xr * tr - xi * ti, xr * ti + xi * tr)
+
+
+@compiled
+def power_gram(powers: np.ndarray, width: int) -> np.ndarray:  # pragma: no cover
+    """``G_ab = sum_f P_a(f) P_b(f)`` over the columns of the float32 rows `powers` (J, K),
+    in double precision: blocks of `width` columns are promoted once to a float64 buffer
+    (in L1 at J = 19, width = 128), and each row is multiplied with four others at a time,
+    so that one load of ``P_a(f)`` serves four products. Symmetric."""
+    J, K = powers.shape
+    gram = np.zeros((J, J))
+    block = np.empty((J, width))
+    for s in range(0, K, width):
+        w = min(width, K - s)
+        for a in range(J):
+            for f in range(w):
+                block[a, f] = powers[a, s + f]
+        for a in range(J):
+            ra = block[a]
+            b = 0
+            while b + 4 <= a + 1:
+                r0, r1, r2, r3 = block[b], block[b + 1], block[b + 2], block[b + 3]
+                c0 = c1 = c2 = c3 = 0.0
+                for f in range(w):
+                    c0 += ra[f] * r0[f]
+                    c1 += ra[f] * r1[f]
+                    c2 += ra[f] * r2[f]
+                    c3 += ra[f] * r3[f]
+                gram[a, b] += c0
+                gram[a, b + 1] += c1
+                gram[a, b + 2] += c2
+                gram[a, b + 3] += c3
+                b += 4
+            for rest in range(b, a + 1):
+                rb = block[rest]
+                c0 = 0.0
+                for f in range(w):
+                    c0 += ra[f] * rb[f]
+                gram[a, rest] += c0
+    for a in range(J):
+        for b in range(a):
+            gram[b, a] = gram[a, b]
+    return gram
