@@ -12,7 +12,7 @@ and on one thread.
 ``--contention``: what two processes at once cost each other, the figure that limits a fleet of
 single-threaded workers (``stochmod calibrate --workers 2``). Each of the one-thread
 covariance and the peer runs in fresh processes, first one alone, then two at once; printed
-is the CPU time per call (best of `repeat`) and the ratio together / alone (1.0: no
+is the CPU time per call (best and median of `repeat`) and the ratio together / alone (1.0: no
 contention; memory-bandwidth-bound work is above).
 """
 
@@ -45,26 +45,34 @@ def _task(what: str, x: np.ndarray):
 def _child(what: str, n: int, repeat: int) -> None:
     fn = _task(what, simulated(n))
     fn()  # warm-up: imports, compiled code, caches
-    print(best_of(fn, repeat, clock=time.process_time))
+    times = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    print(min(times), float(np.median(times)))
 
 
-def _processes(what: str, n: int, repeat: int, count: int) -> list[float]:
-    """CPU seconds per call of `count` fresh processes running `what` at the same time."""
+def _processes(what: str, n: int, repeat: int, count: int) -> np.ndarray:
+    """CPU seconds per call (best, median) of `count` fresh processes running `what` at the
+    same time, one row per process."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", what, str(n),
            "--repeat", str(repeat)]
     runs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True) for _ in range(count)]
-    return [float(p.communicate()[0]) for p in runs]
+    return np.array([[float(v) for v in p.communicate()[0].split()] for p in runs])
 
 
 def contention(n: int, repeat: int, rounds: int = 2) -> None:
-    print(f"two processes at once, CPU per call, best of {repeat} per process, "
-          f"{rounds} rounds (N = {n:,})")
+    print(f"two processes at once, CPU per call, best (median) of {repeat} per process, "
+          f"best of {rounds} rounds (N = {n:,})")
     for what, label in (("eq17", "stochmod wv_covariance, 1 thread"),
                         ("oadev", "allantools oadev(taus='octave')")):
-        alone = min(_processes(what, n, repeat, 1)[0] for _ in range(rounds))
-        together = min(float(np.mean(_processes(what, n, repeat, 2))) for _ in range(rounds))
-        print(f"{label:<36} alone {alone:7.3f} s  two at once {together:7.3f} s  "
-              f"ratio {together / alone:5.2f}")
+        alone = np.min([_processes(what, n, repeat, 1)[0] for _ in range(rounds)], axis=0)
+        together = np.min([_processes(what, n, repeat, 2).mean(axis=0) for _ in range(rounds)],
+                          axis=0)
+        print(f"{label:<34} alone {alone[0]:6.3f} ({alone[1]:.3f}) s  two at once "
+              f"{together[0]:6.3f} ({together[1]:.3f}) s  ratio {together[0] / alone[0]:5.2f} "
+              f"({together[1] / alone[1]:.2f})")
 
 
 def main(n: int = 2_000_000, repeat: int = 3) -> None:
