@@ -22,7 +22,7 @@ time): for short series (under :data:`FOUR_STEP_MIN` points) one transform of sc
 fast length; otherwise the smallest ``H = n1 n2 >= n`` with ``n1 <= n2 <= 2 n1`` and both
 factors 7-smooth (pocketfft's radix-2, 3, 4, 5 and 7 kernels). Measured on this machine, the
 four-step's time per point does not depend on the factors beyond noise (about 11.5 ns per
-point at ``H`` from 2^20 to 2.1e6 over 60 such splits), whereas a single transform's does
+point at ``H`` from 2^20 to 2.1e6 over 50 such splits), whereas a single transform's does
 (2,000,000 = 2^7 5^6 took 56 ms, 2,016,000 = 2^8 3^2 5^3 7 took 42 ms): so the rule only needs
 the least padding.
 """
