@@ -35,7 +35,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     # the readers' dispatch) sit with them, so that every estimator may take a Recording
     ("contract", ("stochmod.hookspecs", "stochmod.registry", "stochmod.process", "stochmod.model",
                   "stochmod.theory", "stochmod.units", "stochmod.io", "stochmod.lattice")),
-    ("signal", ("stochmod.signal", "stochmod.signal.garch_jit")),
+    ("signal", ("stochmod.signal", "stochmod.signal.garch_jit", "stochmod.signal.four_step")),
     ("fit", ("stochmod.fit",)),
     # the classical pipelines that end in models, navigation, combiners, readers
     ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination",

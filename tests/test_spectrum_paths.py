@@ -38,3 +38,16 @@ def test_twiddles_are_the_unit_circle():
     k = np.arange(7)
     np.testing.assert_allclose(table[:, 0] + 1j * table[:, 1], np.exp(2j * np.pi * k / 12),
                                atol=1e-7)
+
+
+@needs_numba
+@pytest.mark.parametrize("J, K, width", [(1, 5, 128), (3, 300, 128), (4, 128, 128),
+                                         (7, 1000, 64), (19, 777, 128)])
+def test_power_gram_equals_the_double_precision_product(J, K, width):
+    """The compiled Gram (rows in groups of four, the rest one by one; a last partial block)
+    against numpy's float64 product of the same float32 rows."""
+    powers = np.random.default_rng(J * K).random((J, K)).astype(np.float32) * 1e3
+    exact = powers.astype(np.float64) @ powers.T.astype(np.float64)
+    gram = spectrum_jit.power_gram(powers, width)
+    np.testing.assert_allclose(gram, exact, rtol=1e-13)
+    assert np.array_equal(gram, gram.T)

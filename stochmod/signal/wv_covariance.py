@@ -24,7 +24,7 @@ from scipy import fft
 
 from stochmod._validation import as_signal, check_positive_int
 from stochmod.errors import InputError
-from stochmod.signal import haar_jit, spectrum_jit
+from stochmod.signal import four_step, haar_jit, spectrum_jit
 from stochmod.signal.modwt import check_level, pyramid, default_levels, modwt_filters
 
 __all__ = ["THREADS_VARIABLE", "default_workers", "wv_covariance"]
@@ -33,6 +33,7 @@ __all__ = ["THREADS_VARIABLE", "default_workers", "wv_covariance"]
 THREADS_VARIABLE = "STOCHMOD_FFT_THREADS"
 _GEMM_SIZE = 1 << 18  # J * J * block at most: OpenBLAS runs such products on one thread
 # (threaded BLAS calls stall for seconds when the other cores are busy; see modwt._DOT)
+_GRAM_BLOCK = 128  # frequencies per block of the compiled Gram (J x 128 float64 in L1)
 
 
 def default_workers() -> int:
@@ -51,18 +52,19 @@ def default_workers() -> int:
     return workers
 
 
-def _level_power(nfft: int) -> Callable[[np.ndarray, np.ndarray], None]:
-    """The function ``power(buf, out)`` that sets ``out = |rfft(buf)|^2``: the float32 power
-    spectrum at ``nfft // 2 + 1`` frequencies of one zero-padded series of `nfft` (even)
-    samples; `buf` may be overwritten. With the compiled loops, the complex transform of the
-    sample pairs, in place, and :func:`~stochmod.signal.spectrum_jit.half_spectrum_power`
-    (about 40 % less time); without, scipy's real transform."""
+def _level_power(shape: tuple[int, int]) -> Callable[[np.ndarray, np.ndarray], None]:
+    """The function ``power(buf, out)`` that sets `out` to the float32 power spectrum
+    ``|rfft(buf)|^2`` at the ``n1 n2 + 1`` frequencies of one zero-padded series of
+    ``2 n1 n2`` samples, ``shape = (n1, n2)``; `buf` may be overwritten. With the compiled
+    loops, the four-step transform of the sample pairs, in place, and the split of its
+    layout (:func:`stochmod.signal.four_step.power_spectrum`; the frequencies in that
+    layout's order, which the Gram matrix does not see); without, scipy's real transform
+    (natural order)."""
     if haar_jit.AVAILABLE:
-        table = spectrum_jit.twiddles(nfft)
+        tables = four_step.plan(*shape)
 
         def power(buf: np.ndarray, out: np.ndarray) -> None:
-            z = fft.fft(buf.view(np.complex64), overwrite_x=True)  # no 8 nfft-byte allocation
-            spectrum_jit.half_spectrum_power(z, table, out)
+            four_step.power_spectrum(buf, tables, out)
     else:
 
         def power(buf: np.ndarray, out: np.ndarray) -> None:
@@ -74,12 +76,14 @@ def _level_power(nfft: int) -> Callable[[np.ndarray, np.ndarray], None]:
 
 
 def _power_spectra(
-    x: np.ndarray, levels: int, wavelet: str, nfft: int, clip: np.ndarray | None = None,
-    workers: int = 1,
+    x: np.ndarray, levels: int, wavelet: str, shape: tuple[int, int],
+    clip: np.ndarray | None = None, workers: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scaled half-spectrum powers ``|X_j(f)|^2 / scale_j`` of every level's interior W_j.
 
-    Returns ``(powers, scale, sizes)``: float32 rows of ``nfft // 2 + 1`` frequencies, the
+    Each series is zero-padded to ``nfft = 2 n1 n2`` samples, ``shape = (n1, n2)``
+    (:func:`stochmod.signal.four_step.transform_shape`). Returns ``(powers, scale, sizes)``:
+    float32 rows of ``nfft // 2 + 1`` frequencies (every row in the same order), the
     float64 factors ``scale_j = mean(W_j^2)`` (unit^2) that undo the normalisation, and M_j.
     Each series is divided by its RMS before the single-precision FFT, so that neither
     ``|X|^2`` nor its products leave float32's range whatever the signal's unit. With
@@ -89,12 +93,13 @@ def _power_spectra(
     level j's coefficients are first clipped to ``+-clip[j-1]``.
     """
     n = x.size
+    nfft = 2 * shape[0] * shape[1]
     powers = np.empty((levels, nfft // 2 + 1), dtype=np.float32)
     scale = np.zeros(levels)
     sizes = np.empty(levels, dtype=np.int64)
     coef = np.empty(n)
     bufs = [np.empty(nfft, dtype=np.float32) for _ in range(workers + 1 if workers > 1 else 1)]
-    power = _level_power(nfft)
+    power = _level_power(shape)
     pending: collections.deque[concurrent.futures.Future[None]] = collections.deque()
     with (concurrent.futures.ThreadPoolExecutor(workers) if workers > 1
           else contextlib.nullcontext()) as pool:
@@ -122,17 +127,23 @@ def _power_spectra(
 def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
     """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
 
-    The float32 rows are promoted to float64 block by block (blocks small enough for one
-    BLAS thread), so the products and their sums are in double precision. (The products are
-    bound by memory bandwidth: two threads on halves of the spectrum were slower, 147 against
-    124 ms for 19 rows of 2M frequencies.)
+    The float32 rows are promoted to float64 block by block, so the products and their sums
+    are in double precision: with the compiled loops by
+    :func:`~stochmod.signal.spectrum_jit.power_gram` (half the time of the BLAS products of
+    short blocks below at J = 19, 2^20 frequencies: 26-29 against 54-56 ms), without, by
+    blocks small enough for one BLAS thread. (The products are bound by memory bandwidth: two
+    threads on halves of the spectrum were slower, 147 against 124 ms for 19 rows of 2M
+    frequencies.)
     """
     J, K = powers.shape
-    width = max(64, _GEMM_SIZE // (J * J))
-    gram = np.zeros((J, J))
-    for s in range(0, K, width):
-        block = powers[:, s : s + width].astype(np.float64)
-        gram += block @ block.T
+    if haar_jit.AVAILABLE:
+        gram = spectrum_jit.power_gram(powers, _GRAM_BLOCK)
+    else:
+        width = max(64, _GEMM_SIZE // (J * J))
+        gram = np.zeros((J, J))
+        for s in range(0, K, width):
+            block = powers[:, s : s + width].astype(np.float64)
+            gram += block @ block.T
     gram *= 2.0  # the conjugate half
     ends = powers[:, [0, -1]].astype(np.float64) if nfft % 2 == 0 else powers[:, :1].astype(
         np.float64
@@ -180,22 +191,26 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     -----
     The transforms are in single precision (relative error ~1e-6, far below the estimator's
     own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
-    time and memory; the products and sums are in double precision. Memory: the J float32
-    half spectra, about 4 J N bytes, plus ``workers + 1`` float32 FFT buffers of 8 N bytes
-    and two float64 copies of `x`.
+    time and memory; the products and sums are in double precision. With the compiled loops,
+    each level's transform is a four-step one of short transforms in cache
+    (:mod:`stochmod.signal.four_step`), whose frequencies come out in another order: the
+    Gram matrix does not depend on it. Memory: the J float32 half spectra, about 4 J N bytes,
+    plus ``workers + 1`` float32 FFT buffers of 8 N bytes, two float64 copies of `x` and the
+    four-step's tables (0.6 MB at N = 2^20).
     """
     x = as_signal(x, name="x", min_length=2)
     modwt_filters(wavelet)
     n = x.size
     J = default_levels(n, wavelet) if levels is None else check_level(n, levels, wavelet, "levels")
-    nfft = 2 * fft.next_fast_len(n)  # even, and half of it a fast complex length
+    shape = four_step.transform_shape(n)
+    nfft = 2 * shape[0] * shape[1]  # >= 2 n: the sums over lags do not wrap around
     bounds = None
     if clip is not None:
         bounds = np.asarray(clip, dtype=np.float64)
         if bounds.shape != (J,) or not np.all(bounds > 0):
             raise InputError(f"clip must hold {J} positive bounds (one per level), got {bounds!r}")
     workers = default_workers() if workers is None else check_positive_int(workers, name="workers")
-    powers, scale, sizes = _power_spectra(x, J, wavelet, nfft, bounds, workers)
+    powers, scale, sizes = _power_spectra(x, J, wavelet, shape, bounds, workers)
     gram = _half_spectrum_gram(powers, nfft)
     M = np.minimum.outer(sizes, sizes).astype(np.float64)
     V = gram * np.outer(scale, scale) / (nfft * M**3)
