@@ -240,3 +240,34 @@ def test_white_part() -> None:
     # the substitute white noise has the GM's level-1 wavelet variance (WN's own formula)
     assert float(white.wv(1)[0]) == pytest.approx(float(gm.wv(1)[0]), rel=1e-12)
     assert [p.family for p in white.processes] == ["WN"] and white.freq == FS
+
+
+def test_outages_cli_passes_the_calibration_record(recording, tmp_path, monkeypatch,
+                                                   capsys) -> None:
+    """The calibration's record length reaches the study for the filters and the emulated
+    truth alike (both are the calibration's models)."""
+    import stochmod.cli.outages as cli_outages
+
+    seen = {}
+
+    class Done:
+        def summary(self) -> str:
+            return "study"
+
+    def fake(filters, truth, **kw):
+        seen.update(kw)
+        return Done()
+
+    monkeypatch.setattr(cli_outages, "outage_study", fake)
+    n = 30000
+    calibration = {"freq": FS, "n": n, "columns": {a: {"model": m.to_spec()}
+                                                  for a, m in MODELS.items()}}
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps(calibration))
+    assert main(["outages", "--calibration", str(path), "--runs", "1", "--quick"]) == 0
+    assert seen["record"] == seen["truth_record"] == n / FS
+    folder, _ = recording  # an older file without the record length: models as given
+    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
+                 "--quick"]) == 0
+    assert seen["record"] is None and seen["truth_record"] is None
+    capsys.readouterr()
