@@ -7,22 +7,11 @@ import pytest
 from scipy.stats import chi2
 
 from stochmod.errors import InputError
-from stochmod.nav import LooselyCoupledFilter, trajectory_from_profile
-from stochmod.nav import ideal_imu
+from stochmod.nav import LooselyCoupledFilter
 import stochmod.nav.filter as nf
 
-from .test_filter import ACCEL, FS, GYRO, PROFILE, _emulate, _filter
-
-
-@pytest.fixture(scope="module")
-def truth():
-    return trajectory_from_profile(PROFILE, rate=FS, lat=47.0, lon=8.0, height=500.0,
-                                   heading=-40.0, speed=5.0)
-
-
-@pytest.fixture(scope="module")
-def clean_imu(truth):
-    return ideal_imu(truth, "increment")
+# the emulated drive of the filter tests (its module-scoped fixtures, shared)
+from .test_filter import ACCEL, GYRO, _emulate, _filter, clean_imu, truth  # noqa: F401
 
 
 def _to_modified(P: np.ndarray, v: np.ndarray) -> np.ndarray:

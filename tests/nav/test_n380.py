@@ -121,7 +121,8 @@ LEVER_ARM = (-1.3, 0.0, 0.0)
 ENSEMBLE = PEER.parent / "nav_pyins_n380_ensemble.json"
 # Outages 2 and 3: stochmod is worse than pyins beyond the ensemble's standard error by about a
 # metre (docs/navigation_real_drive.md, "Over seeded starts"), so "no worse" is not asserted
-# there; the gap is held below GAP_BOUND (m) so that it cannot grow unnoticed.
+# there; the gap is held below GAP_BOUND (m) so that it cannot grow unnoticed. Its cause is the
+# reset ("The cause"): with pyins' one the gap goes (test_real_drive_with_pyins_reset_...).
 GAP_BOUND = 2.0
 
 
