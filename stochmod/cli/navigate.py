@@ -12,7 +12,7 @@ import numpy as np
 from stochmod.errors import InputError
 from stochmod.model import Model
 from stochmod.nav.alignment import InitialState
-from stochmod.nav.filter import LooselyCoupledFilter, NavResult
+from stochmod.nav.filter import ERROR_MODELS, LooselyCoupledFilter, NavResult
 from stochmod.nav.logs import calibration_record, read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
 
@@ -72,6 +72,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "repeatable")
     p.add_argument("--dt-filter", type=float, default=0.1, metavar="S",
                    help="covariance step of the filter, s (default 0.1)")
+    p.add_argument("--error-model", choices=ERROR_MODELS, default="psi",
+                   help="where the filter holds its covariance across a feedback: psi (default) "
+                        "or pyins' modified-phi (docs/navigation.md, 'Reset')")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 
@@ -158,6 +161,7 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
         f"turn-on bias 1-sigma: gyro {gyro_bias_sd:.3g} rad/s, accel {accel_bias_sd:.3g} m/s^2",
+        f"filter reset: {args.error_model}",
         "",
         result.summary(),
     ]
@@ -219,7 +223,8 @@ def run(args: argparse.Namespace) -> int:
     record = None if args.calibration is None else calibration_record(args.calibration)
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
                                gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
-                               lever_arm_sd=lever_arm_sd, record=record)
+                               lever_arm_sd=lever_arm_sd, record=record,
+                               error_model=args.error_model)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages)
     out = Path(args.out)

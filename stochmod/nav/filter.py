@@ -32,6 +32,19 @@ Measurements are applied at their own time stamps (the estimate is interpolated 
 IMU epochs around the stamp), gated by a chi-square test on the normalised innovation, and fed
 back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
 is zero again.
+
+Error model (``error_model``). ``"psi"`` (default) holds the covariance of ``(dr, dv, psi)``
+across each feedback, the first-order reset of the model above. ``"modified-phi"`` is
+Scherzinger & Reid's modified phi-angle model, the one pyins uses: its velocity error is
+``dv' = dv - v_hat x psi`` (the specific force moves out of F into that definition). Its F is
+the psi model's carried into ``dv'`` (the two propagate the same covariance to 5e-6 of the
+correlation scale at the same linearisation point, docs/navigation_real_drive.md), so the
+propagation is done in the psi form; what differs is the feedback: ``v_hat`` changes by the
+velocity correction ``dv_hat`` while the covariance is held in ``(dv', psi)``, i.e. in stochmod's
+states ``P <- A P A'`` with ``A = I + [dv_hat x]`` in the velocity-attitude block. The two
+resets are each first order in their own states and differ at second order; on the n380 drive
+the choice decides how much heading information the filter takes at rest, and with it the
+tilt / accelerometer-bias split (docs/navigation_real_drive.md).
 """
 
 from __future__ import annotations
@@ -66,9 +79,14 @@ from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
-__all__ = ["LooselyCoupledFilter", "NavResult", "NAV_STATES", "RandomWalkEquivalent"]
+__all__ = ["ERROR_MODELS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
+           "RandomWalkEquivalent"]
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
+
+#: The error models of :class:`LooselyCoupledFilter` (module notes): where the covariance is
+#: held across a feedback.
+ERROR_MODELS = ("psi", "modified-phi")
 
 
 @attrs.frozen
@@ -472,14 +490,22 @@ class LooselyCoupledFilter:
         Tc``, with initial variance ``q * record`` instead of its unidentified stationary
         ``sigma^2``; a warning and ``NavResult.random_walks`` report each one. None (default):
         the models are taken as they are.
+    error_model : {"psi", "modified-phi"}
+        ``"psi"`` (default): the covariance of ``(dr, dv, psi)`` is held across each feedback.
+        ``"modified-phi"``: Scherzinger & Reid's modified phi-angle model as pyins uses it, the
+        covariance of ``(dr, dv - v_hat x psi, psi)`` is held instead (module notes).
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
                  lever_arm: ArrayLike = (0.0, 0.0, 0.0), gyro_bias_sd: float = 0.0,
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
                  gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
-                 lever_arm_sd: object = 0.0, record: float | None = None) -> None:
+                 lever_arm_sd: object = 0.0, record: float | None = None,
+                 error_model: str = "psi") -> None:
         self.models = _axis_models(gyro_models, accel_models)
+        if error_model not in ERROR_MODELS:
+            raise InputError(f"error_model must be one of {ERROR_MODELS}, got {error_model!r}")
+        self.error_model = error_model
         if record is not None and not (record > 0 and math.isfinite(record)):
             raise InputError(f"record must be a positive number of seconds, got {record!r}")
         self.record = None if record is None else float(record)
@@ -741,6 +767,8 @@ class _Run:
         mech.h += d[2]
         vn, ve, vd = mech.v
         mech.v = (vn - d[3], ve - d[4], vd - d[5])
+        if self.flt.error_model == "modified-phi":
+            self._hold_modified((-d[3], -d[4], -d[5]))
         # eq. 26 in multiplicative form: q <- q(psi) * q
         px, py, pz = d[6:9]
         a = math.sqrt(px * px + py * py + pz * pz)
@@ -757,6 +785,15 @@ class _Run:
         if self.sens.n:
             self.s = self.s - dx[9:]
             self.corr = self.sens.H @ self.s
+
+    def _hold_modified(self, dvel: tuple[float, float, float]) -> None:
+        """Hold the covariance of the modified velocity error ``dv - v_hat x psi`` while
+        ``v_hat`` changes by `dvel` (m/s): ``P <- A P A'`` with ``A = I + [dvel x]`` in the
+        (velocity, attitude) block (module notes, ``error_model="modified-phi"``)."""
+        A = self._eye.copy()
+        A[3:6, 6:9] = _skew(dvel)
+        P = A @ self.P @ A.T
+        self.P = 0.5 * (P + P.T)
 
     # -------------------------------------------------------------- loop
     def execute(self) -> NavResult:

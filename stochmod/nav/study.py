@@ -22,6 +22,9 @@ from numpy.typing import ArrayLike
 
 from stochmod._validation import check_positive_int
 from stochmod.errors import InputError, SpecError
+from stochmod.classical.build import family_for
+from stochmod.datasheet import signal_unit
+from stochmod.equivalence import RANDOM_WALK, correlation_time, equivalent_term
 from stochmod.model import Model
 from stochmod.nav import earth
 from stochmod.nav.emulate import (
@@ -45,6 +48,7 @@ __all__ = [
     "horizontal_error",
     "max_outage_errors",
     "outage_study",
+    "truth_over_record",
 ]
 
 #: A 10-minute car drive: accelerations, turns both ways, a climb, stops of the turning kind.
@@ -201,6 +205,7 @@ def outage_study(
     progress: Callable[[int, str], None] | None = None,
     workers: int = 1,
     record: float | None = None,
+    truth_record: float | None = None,
 ) -> OutageStudy:
     """Run an outage study.
 
@@ -245,6 +250,12 @@ def outage_study(
         Length (s) of the record the filters' models were fitted on: correlated components
         beyond it enter every filter as the random walks they are over it
         (:class:`~stochmod.nav.LooselyCoupledFilter`, ``record``). None: models as given.
+    truth_record : float, optional
+        Length (s) of the record the *truth* models were fitted on, when they are fits
+        themselves (``stochmod outages`` emulates with a calibration's models): a one-state
+        component whose correlation time exceeds it is drawn as the random walk it is over the
+        record (:func:`truth_over_record`) instead of from its unidentified stationary sigma.
+        None (default): the truth is drawn as given.
 
     Returns
     -------
@@ -264,9 +275,15 @@ def outage_study(
                          f"{traj.time[-1] - t0:g} s trajectory")
     windows = [(t0 + s, t0 + s + d) for s, d in outages]
     workers = check_positive_int(workers, name="workers")
-    setup = _Setup(traj, ideal_imu(traj, "increment"), specs, {a: truth[a] for a in AXES},
+    true_models, start_sd = {a: truth[a] for a in AXES}, np.zeros(len(AXES))
+    if truth_record is not None:
+        if not (math.isfinite(truth_record) and truth_record > 0):
+            raise InputError(f"truth_record must be a positive number of seconds, got "
+                             f"{truth_record!r}")
+        true_models, start_sd = truth_over_record(true_models, truth_record)
+    setup = _Setup(traj, ideal_imu(traj, "increment"), specs, true_models,
                    g_sd, a_sd, tuple(outages), windows, seed, cep, sigma_v, sigma_vel, dt_filter,
-                   record)
+                   record, start_sd)
     errors = {n: np.empty((runs, len(outages))) for n in specs}
     nees = {n: np.empty(runs) for n in specs}
     n_states: dict[str, int] = {}
@@ -310,6 +327,7 @@ class _Setup:
     sigma_vel: float | None
     dt_filter: float
     record: float | None = None
+    start_sd: np.ndarray = attrs.field(factory=lambda: np.zeros(len(AXES)))
 
     def run(self, r: int, progress: Callable[[int, str], None] | None = None
             ) -> list[tuple[str, np.ndarray, float, int]]:
@@ -320,6 +338,8 @@ class _Setup:
         rng = np.random.default_rng([self.seed, r])
         noisy = add_sensor_errors(clean, self.truth, rng)
         bias = np.concatenate([rng.normal(0.0, self.g_sd), rng.normal(0.0, self.a_sd)])
+        if self.start_sd.any():  # the random walks' start over the truth's record
+            bias = bias + rng.normal(0.0, self.start_sd)
         imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h,
                       "increment")
         gnss = gnss_measurements(traj, 1.0, cep=self.cep, sigma_v=self.sigma_v,
@@ -338,6 +358,48 @@ class _Setup:
             out.append((name, max_outage_errors(traj, res.time, res.lat, res.lon, self.windows),
                         float(res.mean_nees), len(res.state_names)))
         return out
+
+
+def truth_over_record(truth: Mapping[str, Model], record: float
+                      ) -> tuple[dict[str, Model], np.ndarray]:
+    """Per-axis truth models as they are over a record of `record` s.
+
+    A one-state correlated component whose correlation time exceeds the record
+    (:func:`stochmod.equivalence.equivalent_term`) is, over it, the random walk of the same
+    driving intensity ``q`` (``2 sigma^2 / Tc`` for a Gauss-Markov process) started at a draw of
+    variance ``q * record``, the filter's ``record`` rule (docs/navigation.md, "Correlated
+    components beyond the record"): its fitted stationary sigma is not identified by the record.
+
+    Returns
+    -------
+    models : dict of str to Model
+        The axes' models with each such component replaced by a random walk of intensity ``q``
+        (the registered family built from the IEEE-952 coefficient K, ``K^2 = q``) starting
+        at zero; other axes unchanged.
+    start_sd : ndarray (6,)
+        Per axis (``gyro_x ... accel_z``), the 1-sigma of the walks' summed start,
+        ``sqrt(sum q * record)`` (signal units); 0 where nothing was replaced.
+    """
+    walk = family_for(("K",))
+    out, start_sd = {}, np.zeros(len(AXES))
+    for j, axis in enumerate(AXES):
+        model = truth[axis]
+        freq, unit = float(model.freq), signal_unit(axis)
+        procs, var = [], 0.0
+        for proc in model.processes:
+            tc = correlation_time(proc, freq, unit)
+            block = proc.block(1.0 / freq, freq)
+            if (tc is None or equivalent_term(tc, freq, record) != RANDOM_WALK
+                    or block.n_states != 1 or block.continuous is None):
+                procs.append(proc)
+                continue
+            c = block.continuous
+            q = float((c.G @ c.Qc @ c.G.T)[0, 0])
+            procs.append(walk.from_ieee952({"K": math.sqrt(q)}, freq))
+            var += q * record
+        out[axis] = Model(tuple(procs)).bind(freq) if var else model
+        start_sd[j] = math.sqrt(var)
+    return out, start_sd
 
 
 _INSTALLED: list[_Setup] = []

@@ -108,6 +108,27 @@ def test_navigate_estimates_the_lever_arm(recording, tmp_path) -> None:
     assert errors["estimated"] < 0.5 * errors["ignored"], errors
 
 
+def test_navigate_error_model_option(recording, tmp_path) -> None:
+    """--error-model modified-phi reaches the filter (the report names it, the trajectory
+    differs from psi's at second order) and keeps the trajectory as accurate."""
+    folder, truth = recording
+    tables = {}
+    for model in ("psi", "modified-phi"):
+        out = tmp_path / model
+        assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                     str(out), "--init", _init_text(truth), "--gyro-bias-sd", "1e-4",
+                     "--accel-bias-sd", "0.01", "--error-model", model, "--no-plots"]) == 0
+        assert f"filter reset: {model}" in (out / "report.txt").read_text()
+        tables[model] = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    a, b = tables["psi"], tables["modified-phi"]
+    assert 0 < np.abs(a[:, 4:7] - b[:, 4:7]).max() < 0.1  # m/s: the resets differ, a little
+    for t in (a, b):
+        assert np.median(horizontal_error(truth, t[:, 0], t[:, 1], t[:, 2])) < 2.0
+    with pytest.raises(SystemExit):  # argparse refuses an unknown name
+        main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+              str(tmp_path / "x"), "--error-model", "phi"])
+
+
 def test_navigate_aligns_itself_and_plots(recording, tmp_path) -> None:
     pytest.importorskip("matplotlib")
     folder, truth = recording
@@ -219,3 +240,34 @@ def test_white_part() -> None:
     # the substitute white noise has the GM's level-1 wavelet variance (WN's own formula)
     assert float(white.wv(1)[0]) == pytest.approx(float(gm.wv(1)[0]), rel=1e-12)
     assert [p.family for p in white.processes] == ["WN"] and white.freq == FS
+
+
+def test_outages_cli_passes_the_calibration_record(recording, tmp_path, monkeypatch,
+                                                   capsys) -> None:
+    """The calibration's record length reaches the study for the filters and the emulated
+    truth alike (both are the calibration's models)."""
+    import stochmod.cli.outages as cli_outages
+
+    seen = {}
+
+    class Done:
+        def summary(self) -> str:
+            return "study"
+
+    def fake(filters, truth, **kw):
+        seen.update(kw)
+        return Done()
+
+    monkeypatch.setattr(cli_outages, "outage_study", fake)
+    n = 30000
+    calibration = {"freq": FS, "n": n, "columns": {a: {"model": m.to_spec()}
+                                                  for a, m in MODELS.items()}}
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps(calibration))
+    assert main(["outages", "--calibration", str(path), "--runs", "1", "--quick"]) == 0
+    assert seen["record"] == seen["truth_record"] == n / FS
+    folder, _ = recording  # an older file without the record length: models as given
+    assert main(["outages", "--calibration", str(folder / "calibration.json"), "--runs", "1",
+                 "--quick"]) == 0
+    assert seen["record"] is None and seen["truth_record"] is None
+    capsys.readouterr()

@@ -11,7 +11,8 @@ import stochmod
 from stochmod.errors import InputError, SpecError
 from stochmod.nav import earth
 from stochmod.nav.emulate import AXES, Segment, Trajectory
-from stochmod.nav.study import OutageStudy, horizontal_error, max_outage_errors, outage_study
+from stochmod.nav.study import (OutageStudy, horizontal_error, max_outage_errors, outage_study,
+                                 truth_over_record)
 
 FS = 50.0
 WN, GM = stochmod.WN, stochmod.GM
@@ -117,3 +118,46 @@ def test_workers_give_the_serial_result() -> None:
     assert np.all(serial.max_error["true"] > 0)
     with pytest.raises(InputError, match="workers"):
         outage_study(filters, TRUTH, workers=0, **kw)
+
+
+# A degenerate fit as the truth (docs/outages.md): a Gauss-Markov gyro component correlated far
+# beyond the record it came from, with a stationary sigma the record does not identify.
+RECORD = 600.0
+BEYOND = (WN.from_density(3e-4, FS) + GM.from_correlation_time(1e9, 0.01)).bind(FS)
+FITTED = {a: BEYOND if a.startswith("gyro") else ACCEL for a in AXES}
+
+
+def test_truth_over_record_is_the_random_walk_of_the_filter_rule() -> None:
+    models, start_sd = truth_over_record(FITTED, RECORD)
+    q = 2 * 0.01**2 / 1e9  # GM driving intensity 2 sigma^2 / Tc
+    np.testing.assert_allclose(start_sd, [np.sqrt(q * RECORD)] * 3 + [0.0] * 3, rtol=1e-12)
+    for axis in AXES:
+        if axis.startswith("accel"):  # Tc 60 s is resolved by the record: untouched
+            assert models[axis] is FITTED[axis]
+            continue
+        white, walk = models[axis].processes
+        assert white is BEYOND.processes[0]
+        block = walk.block(1.0 / FS, FS)
+        c = block.continuous
+        np.testing.assert_allclose(c.F, [[0.0]])  # a random walk ...
+        np.testing.assert_allclose(c.G @ c.Qc @ c.G.T, [[q]], rtol=1e-12)  # ... of intensity q
+        np.testing.assert_allclose(block.P0, [[0.0]])  # started at 0; start_sd draws the offset
+    with pytest.raises(InputError, match="truth_record"):
+        outage_study({"fitted": FITTED}, FITTED, runs=1, profile=PROFILE, rate=FS,
+                     outages=OUTAGES, truth_record=-1.0)
+
+
+def test_a_fitted_truth_beyond_its_record_is_drawn_as_the_filter_sees_it() -> None:
+    """The filter told the record takes the component as a random walk started with variance
+    q T; drawn from the stationary sigma (0.01 rad/s) the truth is far outside that, and the
+    filter's NEES explodes; drawn over the record (truth_record) it is honest."""
+    nees = {}
+    for name, truth_record in (("over record", RECORD), ("stationary", None)):
+        with pytest.warns(UserWarning, match="random walk"):  # the filter's record rule
+            study = outage_study({"fitted": FITTED}, FITTED, runs=1, seed=3, profile=PROFILE,
+                                 rate=FS, outages=OUTAGES, record=RECORD,
+                                 truth_record=truth_record)
+        nees[name] = float(study.nees["fitted"][0])
+    print(nees)
+    assert 3.0 < nees["over record"] < 20.0, nees
+    assert nees["stationary"] > 10 * nees["over record"], nees
