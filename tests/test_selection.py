@@ -165,6 +165,28 @@ def test_default_executor_keeps_a_few_fits_in_this_process(threads, monkeypatch)
     assert started == [2]
 
 
+def test_a_local_pool_forks_its_workers_before_v_starts_on_a_thread(monkeypatch):
+    """V (eq. 17) runs on a thread of this process beside a local process pool. The pool's
+    workers must exist before that thread starts: a worker forked while the thread held
+    numba's compiler lock (loading eq. 17's compiled loops) would wait forever on its own
+    first compiled call. (It did: test_cli_calibrate hung in a worker's GM closed form.)"""
+    import stochmod.fit.selection as selection_module
+
+    covariance = selection_module._covariance
+    workers_at_start: list[int] = []
+    pool = ProcessPoolExecutor(2)
+
+    def watched(item):
+        workers_at_start.append(len(pool._processes or {}))
+        return covariance(item)
+
+    monkeypatch.setattr(selection_module, "_covariance", watched)
+    x = QWR.simulate(2**12, rng=8)
+    with pool:
+        select(x, FREQ, candidates=QWR_CANDIDATES[:2], executor=pool, rng=1)
+    assert workers_at_start == [2]
+
+
 def test_dask_distributed_executor_works_unchanged():
     # a dask.distributed client's executor on a local cluster of worker processes: the fits are
     # pickled to other processes and come back through dask futures; same ranking as the default

@@ -566,6 +566,18 @@ def _executor(executor: Any, n_fits: int) -> Iterator[tuple[Any, bool]]:
         yield executor, isinstance(executor, concurrent.futures.ProcessPoolExecutor)
 
 
+def _start_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
+    """Have `pool` start its worker processes now, before this process starts V's threads.
+
+    A forked worker inherits the locks of this process as they are at the fork: if V's
+    thread were compiling or loading a numba function then, the worker would inherit numba's
+    compiler lock held by a thread that does not exist in it, and wait forever on its own
+    first compiled call (the GM closed form's). With the fork start method a pool starts all
+    its workers at its first task; later tasks reuse them, so this costs one round trip.
+    """
+    pool.submit(int).result()
+
+
 def _signals(x: Any, freq: float | None, names: Sequence[str] | None
              ) -> tuple[np.ndarray, float, list[str], bool]:
     single = False
@@ -723,6 +735,8 @@ def select(
             if free > J:
                 raise InputError(f"candidate {name} has {free} free parameters but the signal gives "
                                  f"only {J} wavelet levels")
+        if isinstance(pool, concurrent.futures.ProcessPoolExecutor):
+            _start_workers(pool)
         # V runs alongside the fits: beside a local process pool, on a thread of this process
         # (its transforms release the GIL; no signal sent to a worker), else on the executor
         covs = [(here if local else pool).submit(_covariance, (data[:, k], sh.empirical, J))
