@@ -149,8 +149,6 @@ def gmwm(
             raise InputError("freq (Hz) is required when data is a signal")
         freq = check_freq(freq)
         signal = as_signal(data, name="data", min_length=8)
-        if np.ptp(signal) == 0:
-            raise InputError("data is constant: it has no noise to model")
         emp = wvar(signal, freq, wavelet=wavelet, levels=levels,
                    **({"robust": True, "efficiency": efficiency} if robust else {}))
     J = emp.wv.size if levels is None else levels
