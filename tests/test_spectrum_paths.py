@@ -1,7 +1,7 @@
 """The eq. 17 covariance's two power-spectrum paths: scipy's real transform (pure numpy/scipy)
 and the complex transform of sample pairs with the compiled split
-(:mod:`stochmod.signal.spectrum_jit`), each against an independent double-precision
-computation."""
+(:mod:`stochmod.signal.spectrum_jit`, through :mod:`stochmod.signal.four_step`), each against
+an independent double-precision computation."""
 
 from __future__ import annotations
 
@@ -9,9 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy import fft
-
-from stochmod.signal import haar_jit, spectrum_jit
+from stochmod.signal import four_step, haar_jit, spectrum_jit
 
 needs_numba = pytest.mark.skipif(haar_jit.numba is None,
                                  reason="numba (the 'fast' extra) is not installed")
@@ -28,14 +26,14 @@ def test_split_power_equals_the_real_transform(half, seed, exponent):
     n = 2 * half
     x = (np.random.default_rng(seed).standard_normal(n) * 2.0**exponent).astype(np.float32)
     out = np.empty(half + 1, dtype=np.float32)
-    spectrum_jit.half_spectrum_power(fft.fft(x.view(np.complex64)), spectrum_jit.twiddles(n), out)
     exact = np.abs(np.fft.rfft(x.astype(np.float64))) ** 2
+    four_step.power_spectrum(x, four_step.plan(1, half), out)  # the natural order (n1 = 1)
     assert np.max(np.abs(out - exact)) <= 1e-5 * np.max(exact)
 
 
 def test_twiddles_are_the_unit_circle():
-    table = spectrum_jit.twiddles(12).astype(np.float64)
-    k = np.arange(7)
+    table = four_step.plan(1, 6).cols  # (cos, sin) of 2 pi k / N for N = 12 real samples
+    k = np.arange(6)
     np.testing.assert_allclose(table[:, 0] + 1j * table[:, 1], np.exp(2j * np.pi * k / 12),
                                atol=1e-7)
 

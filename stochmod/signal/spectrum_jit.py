@@ -17,11 +17,11 @@ complex one of half the length; Press et al., Numerical Recipes, 2nd ed., sec. 1
 (:mod:`stochmod.signal.four_step`): an ``(n1, n2)`` array ``C`` with ``C[k1, k2] = Z[k1 + n1 k2]``
 (``H = n1 n2``), where the partner of ``(k1, k2)`` is ``(-k1 mod n1, n2 - 1 - k2)``, or
 ``(0, -k2 mod n2)`` in row 0, and writes the powers in that same order, which the Gram matrix
-of eq. 17 does not see (it sums over all frequencies). With ``n1 = 1`` it is the natural order
-(:func:`half_spectrum_power`). :func:`twiddle_block` is the four-step's multiply between its two
-passes of short transforms; :func:`power_gram` the Gram matrix of the levels' powers. One compiled pass reads each pair once and writes both powers;
-numpy would need about eight passes (so without numba, :mod:`stochmod.signal.wv_covariance`
-keeps scipy's real transform).
+of eq. 17 does not see (it sums over all frequencies); with ``n1 = 1`` it is the natural order.
+:func:`twiddle_block` is the four-step's multiply between its two passes of short transforms;
+:func:`power_gram` the Gram matrix of the levels' powers. One compiled pass reads each pair
+once and writes both powers; numpy would need about eight passes (so without numba,
+:mod:`stochmod.signal.wv_covariance` keeps scipy's real transform).
 
 Without numba (or with ``STOCHMOD_DISABLE_JIT=1``) :data:`stochmod.signal.haar_jit.AVAILABLE`
 is False and nothing here is used.
@@ -29,24 +29,11 @@ is False and nothing here is used.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from stochmod.signal.haar_jit import compiled
 
-__all__ = ["half_spectrum_power", "power_gram", "split_power", "twiddle_block", "twiddles"]
-
-_UNIT = np.array([[1.0, 0.0]], dtype=np.float32)  # (cos, sin) of the one row of a 1 x H layout
-
-
-@functools.lru_cache(maxsize=2)
-def twiddles(nfft: int) -> np.ndarray:
-    """``(cos, sin)`` of ``2 pi k / nfft`` for ``k = 0 .. nfft/2``, shape ``(nfft/2 + 1, 2)``,
-    float32 (the precision of the transforms they combine). Cached: every level of a signal
-    shares them."""
-    angle = (2.0 * np.pi / nfft) * np.arange(nfft // 2 + 1)
-    return np.stack([np.cos(angle), np.sin(angle)], axis=1).astype(np.float32)
+__all__ = ["power_gram", "split_power", "twiddle_block"]
 
 
 @compiled
@@ -94,13 +81,6 @@ def split_power(c: np.ndarray, rows: np.ndarray, cols: np.ndarray,
             cs = np.float64(cols[k2, 1])
             dst[k2], dst_mirror[n2 - 1 - k2] = _pair(row[k2], mirror[n2 - 1 - k2],
                                                      rc * cc - rs * cs, rc * cs + rs * cc)
-
-
-def half_spectrum_power(z: np.ndarray, table: np.ndarray, out: np.ndarray) -> None:
-    """``out[k] = |X_k|^2`` for ``k = 0 .. H`` from ``z``, the complex transform (length ``H``)
-    of a real series' sample pairs, and ``table = twiddles(2 H)``: :func:`split_power` of the
-    natural order (a ``1 x H`` layout)."""
-    split_power(z.reshape(1, -1), _UNIT, table, out)
 
 
 @compiled
