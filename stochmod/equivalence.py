@@ -27,7 +27,7 @@ from typing import Any
 from stochmod.datasheet import si_unit_of
 from stochmod.units import parse_unit
 
-__all__ = ["correlation_time", "equivalent_term", "WHITE_NOISE", "RANDOM_WALK"]
+__all__ = ["beyond_record", "correlation_time", "equivalent_term", "WHITE_NOISE", "RANDOM_WALK"]
 
 WHITE_NOISE = "white noise"
 RANDOM_WALK = "random walk"
@@ -68,3 +68,16 @@ def equivalent_term(tc: float, freq: float, record: float) -> str | None:
     if tc > record:
         return RANDOM_WALK
     return None
+
+
+def beyond_record(model: Any, unit: str, record: float) -> list[tuple[int, float]]:
+    """``(index, Tc)`` of each component of `model` (a Model bound to its frequency, signal
+    unit `unit`) that is a :data:`RANDOM_WALK` over a record of `record` s: the components the
+    navigation filter augments, and its outage studies emulate, as random walks."""
+    freq = float(model.freq)
+    out = []
+    for k, proc in enumerate(model.processes):
+        tc = correlation_time(proc, freq, unit)
+        if tc is not None and equivalent_term(tc, freq, record) == RANDOM_WALK:
+            out.append((k, tc))
+    return out

@@ -60,7 +60,7 @@ from scipy.stats import chi2
 
 from stochmod._fields import array_field
 from stochmod.datasheet import signal_unit
-from stochmod.equivalence import RANDOM_WALK, correlation_time, equivalent_term
+from stochmod.equivalence import beyond_record
 from stochmod.errors import EstimationError, InputError, SpecError
 from stochmod.model import Model, augment_axes
 from stochmod.nav import earth, frames
@@ -342,11 +342,8 @@ def _as_random_walks(models: dict[str, Model], names: list[str], record: float, 
     Returns ``(F, Phi, Q, P0, walks)`` (copies when changed)."""
     walks, kept = [], []
     for axis, model in models.items():
-        freq, unit = float(model.freq), signal_unit(axis)
-        for label, proc in zip(model.labels, model.processes):
-            tc = correlation_time(proc, freq, unit)
-            if tc is None or equivalent_term(tc, freq, record) != RANDOM_WALK:
-                continue
+        for k, tc in beyond_record(model, signal_unit(axis), record):
+            label = model.labels[k]
             states = [i for i, n in enumerate(names) if n.startswith(f"{axis}.{label}.")]
             (walks if len(states) == 1 else kept).append((axis, label, tc, states))
     if kept:

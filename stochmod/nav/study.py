@@ -24,7 +24,7 @@ from stochmod._validation import check_positive_int
 from stochmod.errors import InputError, SpecError
 from stochmod.classical.build import family_for
 from stochmod.datasheet import signal_unit
-from stochmod.equivalence import RANDOM_WALK, correlation_time, equivalent_term
+from stochmod.equivalence import beyond_record
 from stochmod.model import Model
 from stochmod.nav import earth
 from stochmod.nav.emulate import (
@@ -384,13 +384,12 @@ def truth_over_record(truth: Mapping[str, Model], record: float
     out, start_sd = {}, np.zeros(len(AXES))
     for j, axis in enumerate(AXES):
         model = truth[axis]
-        freq, unit = float(model.freq), signal_unit(axis)
+        freq = float(model.freq)
+        walks = {k for k, _ in beyond_record(model, signal_unit(axis), record)}
         procs, var = [], 0.0
-        for proc in model.processes:
-            tc = correlation_time(proc, freq, unit)
-            block = proc.block(1.0 / freq, freq)
-            if (tc is None or equivalent_term(tc, freq, record) != RANDOM_WALK
-                    or block.n_states != 1 or block.continuous is None):
+        for k, proc in enumerate(model.processes):
+            block = proc.block(1.0 / freq, freq) if k in walks else None
+            if block is None or block.n_states != 1 or block.continuous is None:
                 procs.append(proc)
                 continue
             c = block.continuous
