@@ -74,6 +74,8 @@ _G_COEFS = np.array([float(Fraction((-1) ** n * (4 - 2**n), math.factorial(n))) 
 _EXPONENTS = np.arange(max(_S_COEFS.size, _G_COEFS.size), dtype=np.float64)
 _POLY_TERMS = 7  # |z| < 1e-3: terms up to z^6 leave < 1e-18 relative
 _SMALL_Z_LOG = math.log(1e-3)
+#: Up to this many rows, :func:`haar_wv_positive_rows` checks ``u`` as plain floats.
+_FEW_ROWS = 16
 
 
 def _power_series(coefs: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -342,11 +344,24 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
     """
     u = np.asarray(u, dtype=np.float64).reshape(-1)
     m = np.asarray(m, dtype=np.float64).reshape(-1)
-    low, high = (float(u.min()), float(u.max())) if u.size else (1.0, 1.0)
-    if not (low > 0 and high < math.inf):
-        bad = u[~((u > 0) & (u < math.inf))]
-        raise InputError(f"u must be positive finite numbers, got {bad[0]!r}")
-    ladder = _ladder(m.tobytes())
+    if u.size <= _FEW_ROWS:  # an optimizer's few rows: plain floats, no reductions
+        us = u.tolist()
+        if not all(0.0 < v < math.inf for v in us):
+            bad = [v for v in us if not 0.0 < v < math.inf]
+            raise InputError(f"u must be positive finite numbers, got {bad[0]!r}")
+        high = max(us, default=1.0)
+    else:
+        low, high = (float(u.min()), float(u.max())) if u.size else (1.0, 1.0)
+        if not (low > 0 and high < math.inf):
+            bad = u[~((u > 0) & (u < math.inf))]
+            raise InputError(f"u must be positive finite numbers, got {bad[0]!r}")
+    m_bytes = m.tobytes()
+    if _JIT and high <= -_SMALL_Z_LOG and _full_ladder(m_bytes):  # the common case, at once
+        w = np.empty((u.size, m.size))
+        dw = np.empty((u.size, m.size))
+        _positive_rows_jit(u, m, w, dw)
+        return w, dw
+    ladder = _ladder(m_bytes)
     if ladder is None:  # not powers of two: the general closed form, elementwise
         return haar_wv_geometric(-u[:, None], m), -haar_wv_geometric_dlog(-u[:, None], m)
     if ladder.size != m.size or ladder[-1] != m.size - 1:  # some of 1, 2, 4, ...: from all
@@ -464,6 +479,13 @@ def _ladder(m_bytes: bytes) -> np.ndarray | None:
         raise InputError(f"m must be positive integers (samples per half Haar filter), got {m!r}")
     mantissa, exponent = np.frexp(m)
     return (exponent - 1).astype(np.intp) if np.all(mantissa == 0.5) else None
+
+
+@functools.lru_cache(maxsize=16)
+def _full_ladder(m_bytes: bytes) -> bool:
+    """Whether the half-widths are exactly ``1, 2, 4, ..., 2^(J-1)`` (J >= 1)."""
+    m = np.frombuffer(m_bytes, dtype=np.float64)
+    return bool(m.size) and bool(np.array_equal(m, 2.0 ** np.arange(m.size)))
 
 
 @functools.lru_cache(maxsize=8)

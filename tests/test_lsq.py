@@ -91,6 +91,8 @@ def test_a_failing_trial_point_is_a_rejected_step() -> None:
     assert res.x[0] == pytest.approx(1.0, abs=1e-6)
     with pytest.raises(ValueError, match="not finite at the start"):
         levenberg_marquardt(lambda x: np.array([np.nan]), jac, np.array([0.0]), (-1.0, 1.0), **TOL)
+    with pytest.raises(ValueError, match="start is not finite"):
+        levenberg_marquardt(fun, jac, np.array([np.nan]), (-10.0, 10.0), **TOL)
 
 
 def test_callback_stops_the_search_and_the_budget_is_kept() -> None:

@@ -156,3 +156,27 @@ def test_select_takes_the_wv_here_and_its_v_is_data_covariance_bit_for_bit() -> 
             emp = wvar(x, FREQ, levels=levels)
             V = data_covariance(x, emp, emp.wv.size)
             assert np.array_equal(_bits(res.wv_covariance), _bits(V))
+
+
+def test_one_point_is_the_rows_path_bit_for_bit() -> None:
+    """VectorBinding.point (the optimizer's one point) against values + evaluate of that row,
+    and None where values() finds the row outside its domains."""
+    model = stochmod.model_from_spec("GM(beta=5.0, sigma2=1e-6) + GM(beta=0.01, sigma2=4e-6) + WN(sigma2=1e-4) "
+                                     "+ QN(Q2=1e-7) + RW(sigma2=1e-12) + RR(omega=1e-8)", FREQ)
+    binding = VectorBinding.of(model, 17)
+    rng = np.random.default_rng(4)
+    theta = model.to_unconstrained() + rng.normal(0.0, 2.0, size=(12, model.n_params))
+    theta[5, 2] = 800.0  # exp overflows: outside the domain
+    with np.errstate(over="ignore"):
+        values, valid = binding.values(theta)
+    assert not valid[5] and valid.sum() == 11
+    wv, jac = binding.evaluate(values[valid])
+    rows = iter(range(int(valid.sum())))
+    for t, ok in zip(theta, valid):
+        with np.errstate(over="ignore"):
+            found = binding.point(t)
+        if not ok:
+            assert found is None
+            continue
+        k = next(rows)
+        assert np.array_equal(_bits(found[0]), _bits(wv[k])) and np.array_equal(_bits(found[1]), _bits(jac[k]))

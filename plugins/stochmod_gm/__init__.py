@@ -229,10 +229,14 @@ class GM(Process):
         bit for bit, in one call (:func:`stochmod.geometric.haar_wv_positive_rows`):
         shapes (K, J) in u^2 and (K, J, 2)."""
         values = np.asarray(values, dtype=np.float64).reshape(-1, 2)
-        freq = check_freq(freq)
+        if freq.__class__ is not float or not 0.0 < freq < math.inf:  # else check_freq's value
+            freq = check_freq(freq)
         w, dw_du = haar_wv_positive_rows(values[:, 0] / freq, _levels_m(levels))
         sigma2 = values[:, 1:2]
-        return sigma2 * w, np.stack((sigma2 / freq * dw_du, w), axis=-1)
+        jac = np.empty(w.shape + (2,))
+        np.multiply(sigma2 / freq, dw_du, out=jac[..., 0])
+        jac[..., 1] = w
+        return sigma2 * w, jac
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD of the sampled process, u^2/Hz, at `f` Hz in (-freq/2, freq/2]."""

@@ -115,6 +115,7 @@ class Problem:
         self.levels = nu_hat.size
         self.mask = mask
         self.theta_full = template.to_unconstrained()
+        self._all_free = bool(np.all(mask))
         # Omega = L^T L: L is the transposed Cholesky factor of Omega
         self.L = np.linalg.cholesky(omega).T
         self.omega = omega
@@ -133,6 +134,8 @@ class Problem:
             self._vector = VectorBinding.of(template, self.levels)
 
     def _theta(self, x: np.ndarray) -> np.ndarray:
+        if self._all_free:  # read only by callers: x itself is the full vector
+            return np.asarray(x, dtype=np.float64)
         theta = self.theta_full.copy()
         theta[self.mask] = x
         return theta
@@ -172,12 +175,11 @@ class Problem:
         outside the domains (the Process path then raises as it always did)."""
         if self._vector is None:
             return None
-        values, valid = self._vector.values(self._theta(x)[None, :])
-        if not valid[0]:
+        found = self._vector.point(self._theta(x))
+        if found is None:
             return None
-        wv, jac = self._vector.evaluate(values)
-        self._remember(self._jacobians, key, jac[0])
-        return wv[0]
+        self._remember(self._jacobians, key, found[1])
+        return found[0]
 
     def dphi(self, x: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`phi` on the free unconstrained scale, shape (J, n_free)."""

@@ -96,10 +96,12 @@ def levenberg_marquardt(
     Raises
     ------
     ValueError
-        Non-finite residuals or Jacobian at the start.
+        A start that is not finite, or non-finite residuals or Jacobian there.
     """
     lo, hi = float(bounds[0]), float(bounds[1])
     x = np.minimum(np.maximum(np.asarray(x0, dtype=np.float64), lo), hi)
+    if not all(map(math.isfinite, x.tolist())):
+        raise ValueError("the start is not finite")
     r = np.asarray(fun(x), dtype=np.float64)
     J = np.asarray(jac(x), dtype=np.float64)
     nfev, njev = 1, 1
@@ -110,63 +112,20 @@ def levenberg_marquardt(
     radius = _FIRST_RADIUS
     status = None
     while status is None:
-        Js = J / scale
-        gs = Js.T @ r  # the gradient of the cost in the scaled variables
-        free = None
-        if float(x.min()) <= lo or float(x.max()) >= hi:
-            # coordinates on a bound that the descent direction -g would leave are held there
-            free = ~(((x <= lo) & (gs > 0)) | ((x >= hi) & (gs < 0)))
-            Js, gs = Js[:, free], gs[free]
-        if float(np.abs(gs).max(initial=0.0)) < gtol:  # the projected gradient
+        lin = _Linearisation(x, r, J, scale, lo, hi)
+        if lin.gradient_max < gtol:  # the projected gradient
             status = 1
             break
-        U, s, Vt, info = _gesdd(Js, full_matrices=0)
-        if info != 0:
-            raise np.linalg.LinAlgError("SVD of the Jacobian did not converge")
-        ur = U.T @ r
-        if not s[-1] > _RANK * s[0]:  # the numerically null directions take no step
-            live = s > _RANK * s[0]
-            s, ur, Vt = s[live], ur[live], Vt[live]
-        s2, sur, ur2 = s * s, s * ur, ur * ur
-        gn = sur / s2  # the Gauss-Newton step in the SVD's basis
-        gn_norm = math.sqrt(float(gn @ gn))
-        g_norm = math.sqrt(float(gs @ gs))
-        x_norm = math.sqrt(float(x @ x))
+        lin.decompose()
         while True:  # trust regions at this point until a step is accepted or the search ends
-            mu = 0.0 if gn_norm <= radius else _damping(s2, sur, radius, g_norm)
-            coef = gn if mu == 0.0 else sur / (s2 + mu)
-            step_s = -(Vt.T @ coef)
-            step_s_norm = math.sqrt(float(coef @ coef))  # V is orthonormal
-            if free is None:
-                step = step_s / scale
-                x_new = x + step
-                inside = float(x_new.min()) >= lo and float(x_new.max()) <= hi
-            else:
-                step = np.zeros_like(x)
-                step[free] = step_s / scale[free]
-                inside = False
-            if inside:  # the model's decrease along the step, from the SVD
-                if mu == 0.0:
-                    predicted = 0.5 * float(ur2.sum())
-                else:
-                    f = s2 / (s2 + mu)
-                    predicted = float(f @ ur2) - 0.5 * float((f * f) @ ur2)
-            else:  # clipped to the box: from the step itself
-                x_new = np.minimum(np.maximum(x + step, lo), hi)
-                step = x_new - x
-                Jstep = J @ step
-                predicted = -(float(J.T @ r @ step) + 0.5 * float(Jstep @ Jstep))
-            step_norm = math.sqrt(float(step @ step))
+            x_new, step_s_norm, step_norm, predicted = lin.step(radius)
             r_new = _trial(fun, x_new)
             nfev += 1
             cost_new = math.inf if r_new is None else 0.5 * float(r_new @ r_new)
             actual = cost - cost_new if math.isfinite(cost_new) else -math.inf
             ratio = actual / predicted if predicted > 0 else -1.0
-            if ratio < 0.25:
-                radius = 0.25 * step_s_norm
-            elif ratio > 0.75 and step_s_norm > 0.95 * radius:
-                radius *= 2.0
-            status = _termination(actual, cost, step_norm, x_norm, ratio, ftol, xtol)
+            radius = _next_radius(radius, ratio, step_s_norm)
+            status = _termination(actual, cost, step_norm, lin.x_norm, ratio, ftol, xtol)
             if ratio > 0:
                 break
             if status is None and nfev >= max_nfev:
@@ -191,6 +150,90 @@ def levenberg_marquardt(
             status = 0
     return OptimizeResult(x=x, cost=cost, fun=r, jac=J, nfev=nfev, njev=njev, status=status,
                           success=status > 0 or status == -2, message=_MESSAGES[status])
+
+
+class _Linearisation:
+    """The model of the cost at an accepted point x (finite): the gradient in the variables
+    scaled by `scale`, the coordinates held on a bound, and (:meth:`decompose`) the thin SVD
+    of the scaled Jacobian over the free coordinates, from which :meth:`step` gives the step
+    that fills a trust region and its predicted decrease, for any radius."""
+
+    __slots__ = ("x", "r", "J", "scale", "lo", "hi", "free", "Js", "gs", "gradient_max",
+                 "s2", "sur", "ur2", "gn", "Vt", "gn_norm", "g_norm", "x_norm")
+
+    def __init__(self, x: np.ndarray, r: np.ndarray, J: np.ndarray, scale: np.ndarray,
+                 lo: float, hi: float):
+        self.x, self.r, self.J, self.scale, self.lo, self.hi = x, r, J, scale, lo, hi
+        Js = J / scale
+        gs = Js.T @ r  # the gradient of the cost in the scaled variables
+        free = None
+        xs = x.tolist()
+        if min(xs) <= lo or max(xs) >= hi:
+            # coordinates on a bound that the descent direction -g would leave are held there
+            free = ~(((x <= lo) & (gs > 0)) | ((x >= hi) & (gs < 0)))
+            Js, gs = Js[:, free], gs[free]
+        self.free, self.Js, self.gs = free, Js, gs
+        gl = gs.tolist()
+        # numpy's max: nan when a component is nan (then never below gtol)
+        self.gradient_max = math.nan if any(map(math.isnan, gl)) else max(map(abs, gl), default=0.0)
+
+    def decompose(self) -> None:
+        """The thin SVD of the scaled Jacobian, the Gauss-Newton step in its basis and the
+        norms the trust-region steps need."""
+        U, s, Vt, info = _gesdd(self.Js, full_matrices=0)
+        if info != 0:
+            raise np.linalg.LinAlgError("SVD of the Jacobian did not converge")
+        ur = U.T @ self.r
+        if not s[-1] > _RANK * s[0]:  # the numerically null directions take no step
+            live = s > _RANK * s[0]
+            s, ur, Vt = s[live], ur[live], Vt[live]
+        self.s2, self.sur, self.ur2 = s * s, s * ur, ur * ur
+        self.gn = self.sur / self.s2  # the Gauss-Newton step in the SVD's basis
+        self.Vt = Vt
+        self.gn_norm = math.sqrt(float(self.gn @ self.gn))
+        self.g_norm = math.sqrt(float(self.gs @ self.gs))
+        self.x_norm = math.sqrt(float(self.x @ self.x))
+
+    def step(self, radius: float) -> tuple[np.ndarray, float, float, float]:
+        """The trial point for a trust region of `radius` (scaled variables), the step's
+        scaled norm, its norm, and the model's predicted decrease of the cost."""
+        x, lo, hi, scale = self.x, self.lo, self.hi, self.scale
+        mu = 0.0 if self.gn_norm <= radius else _damping(self.s2, self.sur, radius, self.g_norm)
+        coef = self.gn if mu == 0.0 else self.sur / (self.s2 + mu)
+        step_s = -(self.Vt.T @ coef)
+        step_s_norm = math.sqrt(float(coef @ coef))  # V is orthonormal
+        if self.free is None:
+            step = step_s / scale
+            x_new = x + step
+            inside = all(lo <= v <= hi for v in x_new.tolist())  # (False for a nan)
+        else:
+            step = np.zeros_like(x)
+            step[self.free] = step_s / scale[self.free]
+            inside = False
+        if inside:  # the model's decrease along the step, from the SVD
+            if mu == 0.0:
+                predicted = 0.5 * float(self.ur2.sum())
+            else:
+                f = self.s2 / (self.s2 + mu)
+                predicted = float(f @ self.ur2) - 0.5 * float((f * f) @ self.ur2)
+        else:  # clipped to the box: from the step itself
+            x_new = np.minimum(np.maximum(x + step, lo), hi)
+            step = x_new - x
+            Jstep = self.J @ step
+            predicted = -(float(self.J.T @ self.r @ step) + 0.5 * float(Jstep @ Jstep))
+        step_norm = math.sqrt(float(step @ step))
+        return x_new, step_s_norm, step_norm, predicted
+
+
+def _next_radius(radius: float, ratio: float, step_s_norm: float) -> float:
+    """The trust region after a step of scaled norm `step_s_norm` with gain ratio `ratio`:
+    a quarter of the step after a poor one (below 1/4), doubled after a good one (above 3/4)
+    that reached the region's edge, else unchanged."""
+    if ratio < 0.25:
+        return 0.25 * step_s_norm
+    if ratio > 0.75 and step_s_norm > 0.95 * radius:
+        return radius * 2.0
+    return radius
 
 
 def _damping(s2: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> float:

@@ -59,6 +59,11 @@ class VectorBinding:
         for k, p in enumerate(template.processes):
             groups.setdefault(type(p), []).append(k)
         self._families = [(template.processes[ks[0]], ks) for ks in groups.values()]
+        # one point (:meth:`point`): each family's rows taken from the vector by one index
+        # array (K components, n_params each), and each domain's membership test
+        self._takes = [np.array([np.arange(self.slices[k].start, self.slices[k].stop) for k in ks])
+                       for _, ks in self._families]
+        self._tests = [(scalar_contains(d.name), cols) for d, cols in self._domains]
 
     @classmethod
     def of(cls, template: Model, levels: int) -> VectorBinding | None:
@@ -95,6 +100,32 @@ class VectorBinding:
                 if valid[i] and not all(map(inside, row)):
                     valid[i] = False
         return values, valid
+
+    def point(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The model's WV (J,), unit^2, and its Jacobian with respect to the natural parameter
+        vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
+        domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers (the same
+        elementwise operations and sum) with the per-row bookkeeping left out."""
+        if len(self._domains) == 1:
+            values = self._domains[0][0].from_unconstrained(theta)
+        else:
+            values = np.empty_like(theta)
+            for domain, cols in self._domains:
+                values[cols] = domain.from_unconstrained(theta[cols])
+        for inside, cols in self._tests:
+            if not all(map(inside, values[cols].tolist())):
+                return None
+        parts: list[np.ndarray | None] = [None] * len(self.slices)
+        jac = np.empty((self.levels, self.n_params))
+        for (proto, ks), take in zip(self._families, self._takes):
+            wv, dwv = proto.haar_wv_rows(values[take], self.levels, self.freq)
+            for i, k in enumerate(ks):
+                parts[k] = wv[i]
+                jac[:, self.slices[k]] = dwv[i]
+        total = parts[0].copy()
+        for part in parts[1:]:  # in model order: the digits of Model.wv's sum
+            total += part
+        return total, jac
 
     def derivatives(self, theta: np.ndarray) -> np.ndarray:
         """``d value / d theta`` of every entry of one unconstrained vector `theta` (n,): the
