@@ -212,12 +212,14 @@ class Model:
             procs.append(p)
         return attrs.evolve(self, processes=tuple(procs))
 
-    def start_alternatives(self, wv: ArrayLike) -> list[Model]:
+    def start_alternatives(self, wv: ArrayLike, *, template: Model | None = None) -> list[Model]:
         """Variants of :meth:`start`: one per alternative guess a free family offers
-        (:meth:`Process.start_alternatives`), the other components at their start."""
+        (:meth:`Process.start_alternatives`), the other components at their start
+        (`template`: ``self.start(wv)`` when the caller already has it)."""
         freq = self._freq()
         wv = np.asarray(wv, dtype=np.float64)
-        template = self.start(wv)
+        if template is None:
+            template = self.start(wv)
         counts = Counter(p.family for p in self.processes)
         seen: Counter[str] = Counter()
         variants = []

@@ -216,6 +216,10 @@ class Parameter:
 
     def check(self, value: object, family: str) -> np.ndarray | float:
         """Validate `value` against the domain; return it as float (scalar) or float array."""
+        if value.__class__ is float and self.size == 1:  # a plain float: the scalar test
+            inside = _SCALAR_CONTAINS.get(self.domain)  # (the same verdict; a value outside
+            if inside is not None and inside(value):  # goes on to the error below)
+                return value
         arr = np.asarray(value, dtype=np.float64) if not isinstance(value, str) else None
         if arr is None or arr.dtype == object:
             raise DomainError(f"{family}.{self.name} must be numeric, got {value!r}")

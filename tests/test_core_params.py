@@ -251,3 +251,22 @@ def test_a_family_that_validates_its_fields_is_rebuilt_in_full() -> None:
     assert _scalar_layout(wn) is not None and _scalar_layout(CheckedWN) is None
     rebuilt = CheckedWN(sigma2=1.0).from_unconstrained(np.array([0.5]))
     assert calls[-1] == rebuilt.sigma2 > 0
+
+
+@pytest.mark.parametrize("domain", ["positive", "real", "correlation", "unit_interval"])
+def test_a_plain_float_gets_the_array_paths_verdict_and_value(domain: str) -> None:
+    """Parameter.check's plain-float path against its general path (an np.float64 takes it):
+    the same value back, or the same DomainError, at the domains' edges and beyond."""
+    spec = Parameter("p", domain, "u")
+    values = [0.0, -0.0, 5e-324, 1e-300, 0.5, 1.0 - 2**-53, 1.0, -1.0, -0.5, 2.0, -3.0, 1e308,
+              np.inf, -np.inf, np.nan]
+    for v in values:
+        try:
+            expected = spec.check(np.float64(v), "F")
+        except DomainError as err:
+            with pytest.raises(DomainError, match="outside its domain"):
+                spec.check(float(v), "F")
+            assert "outside its domain" in str(err)
+            continue
+        got = spec.check(float(v), "F")
+        assert type(got) is float and got == expected

@@ -375,7 +375,8 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
             raise SpecError(f"start {s.name} does not match model {base.name} with all values given")
         given.append(s.to_unconstrained()[mask])
     candidates.extend(given)
-    candidates.extend(alt.to_unconstrained()[mask] for alt in base.start_alternatives(nu_hat))
+    candidates.extend(alt.to_unconstrained()[mask]
+                      for alt in base.start_alternatives(nu_hat, template=template))
     for _ in range(n_starts):
         candidates.append(base.start(nu_hat, rng=gen).to_unconstrained()[mask])
     if n_random:
