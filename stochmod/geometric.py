@@ -58,6 +58,8 @@ __all__ = [
     "haar_wv_positive",
     "haar_wv_positive_rows",
     "log1p_complex",
+    "positive_rows_kernel",
+    "POSITIVE_ROWS_KERNEL_MAX_U",
 ]
 
 #: ``m u`` at which the Haar WV of a geometric autocovariance ``exp(-u |h|)`` peaks over the
@@ -444,6 +446,15 @@ def _positive_rows_jit(u: np.ndarray, m: np.ndarray, w: np.ndarray,
             w[k, j] = wj
             dw[k, j] = inv2m[j] + a * a * inv4m[j] / sh2 - wj / th
             term = a * a * a * (3.0 + e)
+
+
+#: The compiled recursion of :func:`haar_wv_positive_rows` for a family's compiled WV kernel
+#: (:attr:`stochmod.process.Process.haar_wv_kernel`): ``positive_rows_kernel(u, m, w, dw)``
+#: fills ``W`` and ``dW/du`` (K, J) with that function's digits where ``0 < u <=``
+#: :data:`POSITIVE_ROWS_KERNEL_MAX_U` and ``m = 1, 2, 4, ...``; None without numba.
+positive_rows_kernel = _positive_rows_jit if _JIT else None
+#: The largest u (``z = e^-u >= 1e-3``) that :data:`positive_rows_kernel` covers.
+POSITIVE_ROWS_KERNEL_MAX_U = -_SMALL_Z_LOG
 
 
 def _horner(coefs: tuple[float, ...], v: float) -> float:

@@ -34,7 +34,7 @@ from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps,
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
 
 __all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "declares_psd", "psd_of",
-           "has_theoretical_wv", "wv_rows_domains"]
+           "has_theoretical_wv", "wv_rows_domains", "wv_kernel"]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -103,6 +103,14 @@ class Process(abc.ABC):
     lattice_copies: ClassVar[int] = 0
     lattice_rank: ClassVar[int] = 0
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    #: Optional compiled form of :meth:`haar_wv_rows` for one component, declared as a
+    #: ``staticmethod``: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar
+    #: WV at the parameter values `values` (n_params,) to `wv` (J,), writes its Jacobian into
+    #: `jac` (J, n_params) and returns True, with the digits of :meth:`haar_wv_rows`; it
+    #: returns False (leaving `wv` unspecified) where it does not apply. `m` holds the
+    #: half-widths ``1, 2, 4, ..., 2^(J-1)``, `freq` is in Hz. The GMWM optimizer calls it
+    #: when every component of the model has one (:func:`wv_kernel`); None: not offered.
+    haar_wv_kernel: ClassVar[Any] = None
 
     def __attrs_post_init__(self) -> None:
         if not declares_block(type(self)):
@@ -573,6 +581,17 @@ def wv_rows_domains(cls: type[Process]) -> tuple[Domain, ...] | None:
         return None
     layout = _scalar_layout(cls)
     return None if layout is None else tuple(domain for _, domain, _ in layout)
+
+
+def wv_kernel(cls: type[Process]) -> Any:
+    """`cls`'s :attr:`Process.haar_wv_kernel` when the family has a vector form
+    (:func:`wv_rows_domains`) and declares the kernel in the class that defines its
+    :meth:`~Process.haar_wv_rows`, or below (a subclass that changes the rows does not inherit
+    its parent's kernel); None otherwise."""
+    kernel = getattr(cls, "haar_wv_kernel", None)
+    if kernel is None or wv_rows_domains(cls) is None:
+        return None
+    return kernel if issubclass(_owner(cls, "haar_wv_kernel"), _owner(cls, "haar_wv_rows")) else None
 
 
 def declares_psd(process: Process | type[Process]) -> bool:

@@ -180,3 +180,47 @@ def test_one_point_is_the_rows_path_bit_for_bit() -> None:
             continue
         k = next(rows)
         assert np.array_equal(_bits(found[0]), _bits(wv[k])) and np.array_equal(_bits(found[1]), _bits(jac[k]))
+
+
+def test_compiled_kernels_give_the_rows_digits() -> None:
+    """A model whose every family declares Process.haar_wv_kernel (GM, WN) is evaluated by the
+    kernels, one call per component in model order: bit for bit the rows path, including a
+    GM whose e^-u < 1e-3 (its kernel declines and the point goes through the rows)."""
+    model = stochmod.model_from_spec("GM(beta=5.0, sigma2=1e-6) + WN(sigma2=1e-4) "
+                                     "+ GM(beta=0.01, sigma2=4e-6) + GM(beta=0.3, sigma2=1e-5)", FREQ)
+    binding = VectorBinding.of(model, 19)
+    if not geometric._JIT:
+        assert binding._kernels is None  # without numba: the rows path only
+        return
+    assert binding._kernels is not None
+    rows = VectorBinding.of(model, 19)
+    rows._kernels = None
+    rng = np.random.default_rng(1)
+    theta = model.to_unconstrained() + rng.normal(0.0, 2.0, size=(400, model.n_params))
+    theta[7, 0] = np.log(2000.0 * FREQ)  # u = 2000: the polynomial path
+    used = 0
+    for t in theta:
+        with np.errstate(all="ignore"):
+            got, expected = binding.point(t), rows.point(t)
+        assert (got is None) == (expected is None)
+        if got is not None:
+            used += 1
+            assert np.array_equal(_bits(got[0]), _bits(expected[0]))
+            assert np.array_equal(_bits(got[1]), _bits(expected[1]))
+    assert used > 300
+    # a model with a family without a kernel (RW) keeps the rows path
+    assert VectorBinding.of(stochmod.model_from_spec("GM + WN + RW", FREQ), 19)._kernels is None
+
+
+def test_a_subclass_that_changes_the_rows_does_not_inherit_the_kernel() -> None:
+    from stochmod.process import wv_kernel
+
+    gm = type(stochmod.model_from_spec("GM", FREQ).processes[0])
+
+    class Rows(gm):
+        def haar_wv_rows(self, values, levels, freq):
+            return super().haar_wv_rows(values, levels, freq)
+
+    if gm.haar_wv_kernel is None:
+        pytest.skip("numba is not available")
+    assert wv_kernel(gm) is gm.haar_wv_kernel and wv_kernel(Rows) is None

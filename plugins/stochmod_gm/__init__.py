@@ -36,7 +36,14 @@ from numpy.typing import ArrayLike
 from stochmod._validation import as_signal, check_freq, check_positive_int
 from stochmod.coefficients import check_coefficients
 from stochmod.errors import DomainError, InputError
-from stochmod.geometric import AV_PEAK_VALUE, WV_PEAK_X, haar_wv_positive, haar_wv_positive_rows
+from stochmod.geometric import (
+    AV_PEAK_VALUE,
+    POSITIVE_ROWS_KERNEL_MAX_U,
+    WV_PEAK_X,
+    haar_wv_positive,
+    haar_wv_positive_rows,
+    positive_rows_kernel,
+)
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
@@ -82,6 +89,26 @@ def _levels_m(levels: int) -> np.ndarray:
     return m
 
 
+def _wv_kernel(values: np.ndarray, m: np.ndarray, freq: float, wv: np.ndarray,
+               jac: np.ndarray) -> bool:
+    """:attr:`GM.haar_wv_kernel`: ``sigma2 W_m(e^-u)`` added to `wv` and its derivatives
+    written into `jac` by the compiled recursion, with :meth:`GM.haar_wv_rows`'s operations
+    on one row (the recursion is called as compiled on its own: inlined into another
+    compiled function its reassociated sums round differently); False where that method
+    takes another path (``e^-u < 1e-3``)."""
+    u = values[0] / freq
+    if not 0.0 < u <= POSITIVE_ROWS_KERNEL_MAX_U:
+        return False
+    w = np.empty((1, m.size))
+    dw = np.empty((1, m.size))
+    positive_rows_kernel(np.array([u]), m, w, dw)
+    sigma2 = values[1:2]
+    wv += sigma2 * w[0]
+    np.multiply(sigma2 / freq, dw[0], out=jac[:, 0])
+    jac[:, 1] = w[0]
+    return True
+
+
 @functools.lru_cache(maxsize=16)
 def _haar_wv(u: float, levels: int) -> tuple[np.ndarray, np.ndarray]:
     """``W_m(e^-u)`` and ``dW/du`` at m = 2^(j-1), j = 1..`levels` (read-only arrays): an
@@ -115,6 +142,7 @@ class GM(Process):
     lattice_copies: ClassVar[int] = 3
     lattice_rank: ClassVar[int] = 10
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("B", "Tc"), ("rate", "variance"))
+    haar_wv_kernel: ClassVar[Any] = None if positive_rows_kernel is None else staticmethod(_wv_kernel)
 
     # ------------------------------------------------------------------ constructors
     @classmethod

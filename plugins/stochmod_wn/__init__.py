@@ -20,9 +20,24 @@ from stochmod.coefficients import check_coefficients
 from stochmod.hookspecs import hookimpl
 from stochmod.params import Parameter
 from stochmod.process import PhysicalValue, Process, as_generator
+from stochmod.signal.haar_jit import AVAILABLE as _COMPILED
+from stochmod.signal.haar_jit import compiled
 from stochmod.units import wn_density
 
 __all__ = ["WN", "stochmod_processes"]
+
+
+@compiled
+def _wv_kernel(values: np.ndarray, m: np.ndarray, freq: float, wv: np.ndarray,
+               jac: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """:attr:`WN.haar_wv_kernel`: ``sigma2 / 2^j`` added to `wv`, ``1 / 2^j`` into `jac`
+    (``2^j = 2 m``, exact: the divisions of :meth:`WN.haar_wv_rows`)."""
+    sigma2 = values[0]
+    for j in range(m.size):
+        scale = 2.0 * m[j]
+        wv[j] += sigma2 / scale
+        jac[j, 0] = 1.0 / scale
+    return True
 
 
 @functools.lru_cache(maxsize=8)
@@ -55,6 +70,7 @@ class WN(Process):
     lattice_copies: ClassVar[int] = 1
     lattice_rank: ClassVar[int] = 20
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("N",),)
+    haar_wv_kernel: ClassVar[Any] = staticmethod(_wv_kernel) if _COMPILED else None
 
     @classmethod
     def from_density(cls, N: float, freq: float) -> WN:

@@ -62,7 +62,7 @@ REFINE_TOLERANCE = (1e-12, 2000)
 
 
 #: Points whose model and binding value a :class:`Problem` remembers.
-_REMEMBERED = 4
+_REMEMBERED = 256
 
 #: Two stage-1 points whose models' WVs agree to this (relative, every level) count as one:
 #: they differ only along directions the WV does not see (a component shrunk to nothing,

@@ -23,7 +23,7 @@ import numpy as np
 
 from stochmod.model import Model
 from stochmod.params import Domain, scalar_contains
-from stochmod.process import Process, wv_rows_domains
+from stochmod.process import Process, wv_kernel, wv_rows_domains
 
 __all__ = ["VectorBinding"]
 
@@ -64,6 +64,10 @@ class VectorBinding:
         self._takes = [np.array([np.arange(self.slices[k].start, self.slices[k].stop) for k in ks])
                        for _, ks in self._families]
         self._tests = [(scalar_contains(d.name), cols) for d, cols in self._domains]
+        # the components' compiled kernels (Process.haar_wv_kernel), when every one has one
+        kernels = [wv_kernel(type(p)) for p in template.processes]
+        self._kernels = None if any(k is None for k in kernels) else list(zip(kernels, self.slices))
+        self._m = 2.0 ** np.arange(self.levels)
 
     @classmethod
     def of(cls, template: Model, levels: int) -> VectorBinding | None:
@@ -105,7 +109,8 @@ class VectorBinding:
         """The model's WV (J,), unit^2, and its Jacobian with respect to the natural parameter
         vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
         domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers (the same
-        elementwise operations and sum) with the per-row bookkeeping left out."""
+        elementwise operations and sum) with the per-row bookkeeping left out; by the
+        components' compiled kernels when every one has one (the same digits again)."""
         if len(self._domains) == 1:
             values = self._domains[0][0].from_unconstrained(theta)
         else:
@@ -115,6 +120,11 @@ class VectorBinding:
         for inside, cols in self._tests:
             if not all(map(inside, values[cols].tolist())):
                 return None
+        if self._kernels is not None:  # one compiled call per component, in model order
+            wv = np.zeros(self.levels)
+            jac = np.empty((self.levels, self.n_params))
+            if all(kernel(values[s], self._m, self.freq, wv, jac[:, s]) for kernel, s in self._kernels):
+                return wv, jac
         parts: list[np.ndarray | None] = [None] * len(self.slices)
         jac = np.empty((self.levels, self.n_params))
         for (proto, ks), take in zip(self._families, self._takes):
