@@ -189,6 +189,25 @@ def _poly(u: np.ndarray, m: np.ndarray, s: np.ndarray, derivative: bool) -> np.n
     return out
 
 
+def _poly_positive(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``W`` and ``dW/du`` (K, J) of :func:`_poly` for real ``u`` (K,), finite and above
+    ``-log 1e-3``, at the half-widths `m` (J,): the same operations in real arithmetic. The
+    complex path's imaginary parts are all zero there, so its real parts are these roundings
+    (``exp`` of ``-u + 0j`` is libm's ``exp(-u)``, which ``math.exp`` is), at a fraction of
+    the cost of :func:`haar_wv_geometric` and :func:`haar_wv_geometric_dlog`."""
+    z = np.array([math.exp(-v) for v in u.tolist()])[:, None]
+    mm = np.broadcast_to(m, (u.size, m.size))
+    w = haar_kernel_value(0, mm) + 0.0
+    dw = np.zeros_like(w)
+    zt = np.ones_like(w)
+    for t in range(1, _POLY_TERMS):
+        zt = zt * z
+        term = 2.0 * haar_kernel_value(t, mm) * zt
+        w = w + term
+        dw = dw - t * term
+    return w, dw
+
+
 def haar_wv_geometric(log_z: ArrayLike, m: ArrayLike, *, sign: ArrayLike = 1) -> np.ndarray:
     """Haar wavelet variance per unit ``c`` of the autocovariance ``gamma(t) = c z^|t|``.
 
@@ -374,9 +393,7 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
         far = u > -_SMALL_Z_LOG
         w = np.empty((u.size, m.size))
         dw = np.empty((u.size, m.size))
-        uf = -u[far][:, None]
-        w[far] = haar_wv_geometric(uf, m)
-        dw[far] = -haar_wv_geometric_dlog(uf, m)
+        w[far], dw[far] = _poly_positive(u[far], m)
         if not far.all():
             w[~far], dw[~far] = haar_wv_positive_rows(u[~far], m)
         return w, dw

@@ -224,3 +224,17 @@ def test_a_subclass_that_changes_the_rows_does_not_inherit_the_kernel() -> None:
     if gm.haar_wv_kernel is None:
         pytest.skip("numba is not available")
     assert wv_kernel(gm) is gm.haar_wv_kernel and wv_kernel(Rows) is None
+
+
+def test_the_polynomial_rows_are_the_complex_paths_digits() -> None:
+    """haar_wv_positive_rows' rows with z = e^-u < 1e-3 (real arithmetic) against
+    haar_wv_geometric and its derivative (complex arithmetic, zero imaginary parts), bit for
+    bit, from the threshold to z underflowing to 0."""
+    rng = np.random.default_rng(0)
+    u = np.concatenate([rng.uniform(6.9078, 12.0, 300), 10.0 ** rng.uniform(1, 3, 300),
+                        [6.90776, 700.0, 745.0, 746.0, 1e5, 1e300]])
+    for levels in (1, 19, 30):
+        m = 2.0 ** np.arange(levels)
+        w, dw = haar_wv_positive_rows(u, m)
+        assert np.array_equal(_bits(w), _bits(geometric.haar_wv_geometric(-u[:, None], m)))
+        assert np.array_equal(_bits(dw), _bits(-geometric.haar_wv_geometric_dlog(-u[:, None], m)))

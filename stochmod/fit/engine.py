@@ -75,6 +75,12 @@ _FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, EstimationError
 _BINDING_METHODS = ("phi", "dphi", "residuals", "objective", "safe_objective")
 
 
+def _same_wv(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two finite WVs agree to :data:`_SAME_WV` (relative to `b`) at every level:
+    ``np.allclose(a, b, rtol=_SAME_WV, atol=0)`` without its generic checks."""
+    return bool(np.all(np.abs(a - b) <= _SAME_WV * np.abs(b)))
+
+
 def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Problem, name)
 
@@ -116,6 +122,7 @@ class Problem:
         self.mask = mask
         self.theta_full = template.to_unconstrained()
         self._all_free = bool(np.all(mask))
+        self._nu_column = nu_hat[:, None]
         # Omega = L^T L: L is the transposed Cholesky factor of Omega
         self.L = np.linalg.cholesky(omega).T
         self.omega = omega
@@ -212,7 +219,7 @@ class Problem:
 
     def flat_jacobian(self, x: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`flat_residuals`."""
-        return -self.dphi(x) / self.nu_hat[:, None]
+        return -self.dphi(x) / self._nu_column
 
     def objective(self, x: np.ndarray) -> float:
         """Eq. 20 at `x` (dimensionless)."""
@@ -403,7 +410,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     seen: list[np.ndarray] = []  # their models' WVs
     for _, x in stage1:
         wv = problem.phi(x)
-        if not any(np.allclose(wv, c, rtol=_SAME_WV, atol=0.0) for c in seen):
+        if not any(_same_wv(wv, c) for c in seen):
             chosen.append(x)
             seen.append(wv)
         if len(chosen) >= n_refine:

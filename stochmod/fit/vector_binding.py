@@ -140,6 +140,8 @@ class VectorBinding:
     def derivatives(self, theta: np.ndarray) -> np.ndarray:
         """``d value / d theta`` of every entry of one unconstrained vector `theta` (n,): the
         diagonal of :meth:`~stochmod.process.Process.transform_jacobian`."""
+        if len(self._domains) == 1:  # one map for the whole vector
+            return self._domains[0][0].elementwise_derivative(theta)
         d = np.empty_like(theta)
         for domain, cols in self._domains:
             d[cols] = domain.elementwise_derivative(theta[cols])
