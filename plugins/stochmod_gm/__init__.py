@@ -96,16 +96,17 @@ def _wv_kernel(values: np.ndarray, m: np.ndarray, freq: float, wv: np.ndarray,
     on one row (the recursion is called as compiled on its own: inlined into another
     compiled function its reassociated sums round differently); False where that method
     takes another path (``e^-u < 1e-3``)."""
-    u = values[0] / freq
+    beta, sigma2 = values.tolist()  # plain floats: the same roundings as the rows' arrays
+    u = beta / freq
     if not 0.0 < u <= POSITIVE_ROWS_KERNEL_MAX_U:
         return False
     w = np.empty((1, m.size))
     dw = np.empty((1, m.size))
     positive_rows_kernel(np.array([u]), m, w, dw)
-    sigma2 = values[1:2]
-    wv += sigma2 * w[0]
+    w = w[0]
+    wv += sigma2 * w
     np.multiply(sigma2 / freq, dw[0], out=jac[:, 0])
-    jac[:, 1] = w[0]
+    jac[:, 1] = w
     return True
 
 
