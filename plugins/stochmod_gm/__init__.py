@@ -110,6 +110,13 @@ def _wv_kernel(values: np.ndarray, m: np.ndarray, freq: float, wv: np.ndarray,
     return True
 
 
+@functools.lru_cache(maxsize=64)
+def _peak_wv(m: float) -> float:
+    """``W_m(e^-u)`` at ``u = PEAK_X / m`` (where a GM's WV peaks at half-width m): the
+    starting values' divisor, the same for every call at that level."""
+    return float(haar_wv_positive(PEAK_X / m, np.array([m]))[0][0])
+
+
 @functools.lru_cache(maxsize=16)
 def _haar_wv(u: float, levels: int) -> tuple[np.ndarray, np.ndarray]:
     """``W_m(e^-u)`` and ``dW/du`` at m = 2^(j-1), j = 1..`levels` (read-only arrays): an
@@ -339,7 +346,7 @@ class GM(Process):
         m = 2.0 ** (j - 1)
         u = PEAK_X / m
         beta = u * freq
-        sigma2 = level_wv / float(haar_wv_positive(u, np.array([m]))[0][0])
+        sigma2 = level_wv / _peak_wv(m)
         if rng is not None:
             beta *= float(np.exp(rng.normal(0.0, 0.5)))
             sigma2 *= float(np.exp(rng.normal(0.0, 0.5)))
