@@ -103,8 +103,8 @@ class Process(abc.ABC):
     lattice_copies: ClassVar[int] = 0
     lattice_rank: ClassVar[int] = 0
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
-    #: Optional compiled form of :meth:`haar_wv_rows` for one component, declared as a
-    #: ``staticmethod``: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar
+    #: Optional fast form of :meth:`haar_wv_rows` for one component (compiled, or a thin
+    #: wrapper of compiled code), declared as a ``staticmethod``: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar
     #: WV at the parameter values `values` (n_params,) to `wv` (J,), writes its Jacobian into
     #: `jac` (J, n_params) and returns True, with the digits of :meth:`haar_wv_rows`; it
     #: returns False (leaving `wv` unspecified) where it does not apply. `m` holds the

@@ -61,7 +61,9 @@ STAGE1_TOLERANCE = (1e-8, 100)
 REFINE_TOLERANCE = (1e-12, 2000)
 
 
-#: Points whose model and binding value a :class:`Problem` remembers.
+#: Points whose model and binding value a :class:`Problem` remembers: more than a search's
+#: stage 1 evaluates, so that the objectives and WVs it asks for afterwards (raw starts,
+#: stage-1 results) are the solver's own values, not computed again.
 _REMEMBERED = 256
 
 #: Two stage-1 points whose models' WVs agree to this (relative, every level) count as one:

@@ -64,10 +64,11 @@ class VectorBinding:
         self._takes = [np.array([np.arange(self.slices[k].start, self.slices[k].stop) for k in ks])
                        for _, ks in self._families]
         self._tests = [(scalar_contains(d.name), cols) for d, cols in self._domains]
-        # the components' compiled kernels (Process.haar_wv_kernel), when every one has one
+        # the components' kernels (Process.haar_wv_kernel), when every one has one
         kernels = [wv_kernel(type(p)) for p in template.processes]
         self._kernels = None if any(k is None for k in kernels) else list(zip(kernels, self.slices))
         self._m = 2.0 ** np.arange(self.levels)
+        self._m.flags.writeable = False  # as the families' own half-widths: one compiled variant
 
     @classmethod
     def of(cls, template: Model, levels: int) -> VectorBinding | None:
@@ -110,7 +111,8 @@ class VectorBinding:
         vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
         domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers (the same
         elementwise operations and sum) with the per-row bookkeeping left out; by the
-        components' compiled kernels when every one has one (the same digits again)."""
+        components' kernels (:attr:`~stochmod.process.Process.haar_wv_kernel`) when every one
+        has one (the same digits again)."""
         if len(self._domains) == 1:
             values = self._domains[0][0].from_unconstrained(theta)
         else:
@@ -120,7 +122,7 @@ class VectorBinding:
         for inside, cols in self._tests:
             if not all(map(inside, values[cols].tolist())):
                 return None
-        if self._kernels is not None:  # one compiled call per component, in model order
+        if self._kernels is not None:  # one kernel call per component, in model order
             wv = np.zeros(self.levels)
             jac = np.empty((self.levels, self.n_params))
             if all(kernel(values[s], self._m, self.freq, wv, jac[:, s]) for kernel, s in self._kernels):
