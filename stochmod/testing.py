@@ -81,7 +81,7 @@ from stochmod.coefficients import COEFFICIENTS
 from stochmod.combiner_checks import check_combiner
 from stochmod.errors import DomainError, InputError
 from stochmod.params import ROLES, get_domain, pacf_to_ar
-from stochmod.process import Process, as_generator, declares_psd, simulate_block
+from stochmod.process import Process, as_generator, declares_psd, simulate_block, wv_kernel
 from stochmod.reporting import format_number, format_table
 from stochmod.statespace import StateSpaceBlock, compose_steps
 from stochmod.theory import wv_from_autocovariance, wv_from_psd
@@ -736,7 +736,36 @@ def check_wv_rows(process: Process | type[Process], freq: float = 100.0, *, rng:
             if not np.array_equal(got, np.asarray(want, dtype=float)):
                 raise AssertionError(f"{p!r}.haar_wv_rows row {k} ({q!r}) differs from its "
                                      f"{what}: max |diff| {np.max(np.abs(got - want)):.3g}")
-    return {"levels": levels, "rows": rows}
+    return {"levels": levels, "rows": rows,
+            "kernel_rows": _check_wv_kernel(type(p), values, wv, jac, levels, freq)}
+
+
+def _check_wv_kernel(cls: type[Process], values: np.ndarray, wv: np.ndarray, jac: np.ndarray,
+                     levels: int, freq: float) -> int:
+    """The family's :attr:`~stochmod.process.Process.haar_wv_kernel`, where it applies (returns
+    True), adds row k's WV to what `wv` holds and writes its Jacobian, bit for bit the rows'
+    `wv[k]` and `jac[k]` (the contract: the GMWM optimizer sums the kernels in place of the
+    rows). The WV is added to a non-zero start to check that it is added. Returns how many
+    rows the kernel took (0 without a kernel)."""
+    kernel = wv_kernel(cls)
+    if kernel is None:
+        return 0
+    m = 2.0 ** np.arange(levels)
+    m.flags.writeable = False
+    start = np.linspace(1.0, 2.0, levels)
+    taken = 0
+    for k, row in enumerate(values):
+        got_wv, got_jac = start.copy(), np.full((levels, row.size), np.nan)
+        if not kernel(row.copy(), m, freq, got_wv, got_jac):
+            continue
+        taken += 1
+        for got, want, what in ((got_wv, start + wv[k], "WV added to the start"),
+                                (got_jac, jac[k], "Jacobian")):
+            if not np.array_equal(got, want):
+                raise AssertionError(f"{cls.__name__}.haar_wv_kernel at row {k} ({row!r}) "
+                                     f"differs from haar_wv_rows in its {what}: max |diff| "
+                                     f"{np.max(np.abs(got - want)):.3g}")
+    return taken
 
 
 def check_declarations(process: Process | type[Process], freq: float = 100.0, *,

@@ -427,3 +427,38 @@ def test_wv_rows_check_catches_a_row_one_ulp_off():
         check_wv_rows(OffByOneUlp, 100.0, rng=2)
     with pytest.raises(NotApplicable, match="base class"):
         check_wv_rows(stochmod.get_process("AR"), 100.0)
+
+
+def test_wv_rows_check_holds_a_kernel_to_the_rows_bit_for_bit():
+    """check_wv_rows also runs a family's haar_wv_kernel (Process.haar_wv_kernel) on each row:
+    GM's and WN's kernels give their rows' digits; a kernel one ulp off, or one that
+    overwrites the WV instead of adding to it, fails."""
+    from stochmod.process import wv_kernel
+    from stochmod.testing import check_wv_rows
+    from stochmod_gm import GM
+    from stochmod_wn import WN
+
+    if wv_kernel(GM) is None or wv_kernel(WN) is None:
+        pytest.skip("the kernels are compiled: numba (the fast extra) is not installed")
+    assert check_wv_rows(GM, 100.0, rng=2)["kernel_rows"] > 0
+    assert check_wv_rows(WN, 100.0, rng=2)["kernel_rows"] == 16
+
+    def one_ulp_off(values, m, freq, wv, jac):
+        done = GM.haar_wv_kernel(values, m, freq, wv, jac)
+        jac[2, 0] = np.nextafter(jac[2, 0], np.inf)
+        return done
+
+    def overwrites(values, m, freq, wv, jac):
+        wv[:] = 0.0
+        return WN.haar_wv_kernel(values, m, freq, wv, jac)
+
+    class OffKernel(GM):
+        haar_wv_kernel = staticmethod(one_ulp_off)
+
+    class Overwriting(WN):
+        haar_wv_kernel = staticmethod(overwrites)
+
+    with pytest.raises(AssertionError, match="haar_wv_kernel at row 0 .* Jacobian"):
+        check_wv_rows(OffKernel, 100.0, rng=2)
+    with pytest.raises(AssertionError, match="WV added to the start"):
+        check_wv_rows(Overwriting, 100.0, rng=2)
