@@ -1,0 +1,49 @@
+"""What ``import stochmod`` and the ``stochmod`` command load at start-up.
+
+Every ``stochmod`` command, and every fleet worker process (spawned, it imports the console
+script's ``stochmod.cli`` first), pays its imports before any work. scipy.signal, scipy.stats,
+networkx and numba cost 1-2 s together and only some paths use them, so they are imported
+where they are used (``stochmod.__getattr__``: the top-level names on first access). These
+tests run a fresh interpreter and read its ``sys.modules``, so the gain cannot silently come
+back through a new module-level import.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("scipy.signal", "scipy.stats", "networkx", "numba")
+
+
+def _loaded(code: str) -> dict[str, bool]:
+    """Which of :data:`HEAVY` a fresh interpreter has imported after running `code`."""
+    probe = f"{code}\nimport json, sys\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+@pytest.mark.parametrize("code", ["import stochmod.cli", "import stochmod",
+                                  "from stochmod import InputError, get_process"])
+def test_package_import_loads_no_heavy_module(code: str) -> None:
+    assert _loaded(code) == dict.fromkeys(HEAVY, False)
+
+
+def test_lazy_names_resolve_to_their_modules() -> None:
+    # the probe must see the heavy modules once a name that needs them is used, else the
+    # test above could pass on a broken probe
+    loaded = _loaded("import stochmod\nstochmod.fit_arma\nstochmod.select\nstochmod.psd_reading")
+    assert loaded["scipy.signal"] and loaded["networkx"] and loaded["scipy.stats"]
+    import stochmod
+    from stochmod.fit.selection import select
+    from stochmod.signal.arma import fit_arma
+
+    assert stochmod.select is select and stochmod.fit_arma is fit_arma
+    assert stochmod.examples.__name__ == "stochmod.examples"
+    missing = [n for n in stochmod.__all__ if not hasattr(stochmod, n)]
+    assert missing == []
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        stochmod.not_a_name  # noqa: B018
