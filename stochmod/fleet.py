@@ -40,6 +40,7 @@ import copy
 import csv
 import functools
 import math
+import multiprocessing
 import os
 import pickle
 import socket
@@ -54,11 +55,10 @@ import numpy as np
 
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
-from stochmod.signal.wv_covariance import THREADS_VARIABLE
 
 __all__ = ["OUTLIER_Z", "MIN_UNITS", "FleetRow", "fleet_rows", "robust_z", "write_fleet_csv",
            "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne",
-           "TaskTiming", "STAGES", "single_threaded", "write_task_csv"]
+           "TaskTiming", "STAGES", "single_threaded", "write_task_csv", "start_process_server"]
 
 #: |robust z| above which a unit is an outlier on a quantity.
 OUTLIER_Z = 3.5
@@ -77,6 +77,11 @@ STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": 
 _MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
                          f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None}
+#: What the local cluster's process server imports before it forks the workers.
+_SERVER_PRELOAD = ("distributed", "stochmod._fleet_worker")
+_HAS_SERVER = "forkserver" in multiprocessing.get_all_start_methods()  # not on Windows
+#: The workers' environment when dask's configuration is not loaded yet (its defaults).
+_WORKER_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
 @attrs.frozen
@@ -251,6 +256,8 @@ def single_threaded() -> Iterator[None]:
     """
     from scipy import fft
 
+    from stochmod.signal.wv_covariance import THREADS_VARIABLE
+
     with _environ(THREADS_VARIABLE, "1"), fft.set_workers(1):
         yield
 
@@ -297,10 +304,57 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     else:
         import dask
 
-        with dask.config.set(_LOCAL_CLUSTER_CONFIG), _environ(_MALLOC_TRIM, None), \
+        config = dict(_LOCAL_CLUSTER_CONFIG)
+        if _HAS_SERVER:  # else dask's default: spawned workers
+            start_process_server()
+            config["distributed.worker.multiprocessing-method"] = "forkserver"
+        with _stopping_process_server(), dask.config.set(config), _environ(_MALLOC_TRIM, None), \
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              dashboard_address=None) as cluster, Client(cluster) as client:
             yield client
+
+
+def start_process_server() -> None:
+    """Start the process server that forks the local cluster's workers, warm.
+
+    The server imports what a task needs, loads the plugins and the compiled loops of a first
+    task (:mod:`stochmod._fleet_worker`) once, while this process goes on (``stochmod
+    calibrate ... --workers N`` calls this before its own imports); each worker then starts
+    as a fork of the server, in milliseconds and warm, instead of as a fresh interpreter that
+    imports everything again and loads the loops in its first task. Returns at once, also
+    when the server runs already. The server has one thread, so a fork inherits no lock held
+    by another thread (numba's compiler lock: docs/fleet.md). It starts with the workers'
+    environment, which its forks cannot change any more: dask's ``pre-spawn-environ``
+    (BLAS and OpenMP on one thread) without ``MALLOC_TRIM_THRESHOLD_``.
+    """
+    import dask
+    from multiprocessing import forkserver
+
+    env = _WORKER_ENV | {k: str(v) for k, v in
+                         dask.config.get("distributed.nanny.pre-spawn-environ", default={}).items()}
+    env.pop(_MALLOC_TRIM, None)
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(_environ(_MALLOC_TRIM, None))
+        for name, value in env.items():
+            stack.enter_context(_environ(name, value))
+        forkserver.ensure_running()
+
+
+@contextlib.contextmanager
+def _stopping_process_server() -> Iterator[None]:
+    """Stop the process server after the enclosed cluster closed, and wait for it: the next
+    cluster starts with the environment of its time, and the workers' CPU time is counted
+    in this process's children (``RUSAGE_CHILDREN``) as with spawned workers."""
+    try:
+        yield
+    finally:
+        if _HAS_SERVER:
+            from multiprocessing import forkserver
+
+            stop = getattr(forkserver._forkserver, "_stop", None)  # CPython's tests use it
+            if stop is not None:
+                stop()
 
 
 @contextlib.contextmanager

@@ -12,6 +12,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
+from stochmod import fleet
 from stochmod.fleet import STAGES, SerialExecutor, _client, single_threaded
 
 FS = 50.0
@@ -79,6 +80,37 @@ def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim(mo
     assert setup == {"pid": setup["pid"], "malloc": None, "blas": "1", "profile": False}
     assert setup["pid"] != os.getpid()
     assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"  # this process's own, restored
+
+
+def _worker_warmth() -> dict:
+    import sys
+
+    from stochmod.signal import haar_jit, spectrum_jit
+
+    return {"parent": os.getppid(), "warm_module": "stochmod._fleet_worker" in sys.modules,
+            "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures)],
+            "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_")}
+
+
+@pytest.mark.skipif(not fleet._HAS_SERVER, reason="no forkserver start method on this platform")
+def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
+    pytest.importorskip("distributed")
+    from multiprocessing import forkserver
+
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    with _client(2, None) as client:
+        server = forkserver._forkserver._forkserver_pid
+        setups = list(client.run(_worker_warmth).values())
+    assert len(setups) == 2
+    for setup in setups:
+        # forked by the server (not this process), which had imported the task's modules and
+        # loaded the WV sweep's and eq. 17's compiled loops before any task ran
+        assert setup["parent"] == server != os.getpid()
+        assert setup["warm_module"] and min(setup["loops"]) >= 1
+        assert setup["blas"] == "1" and setup["malloc"] is None  # the server's environment
+    assert forkserver._forkserver._forkserver_pid is None  # stopped with its cluster
 
 
 @pytest.mark.parametrize("workers", [[], ["--workers", "2"]])

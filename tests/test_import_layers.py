@@ -43,7 +43,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
                       "stochmod.datasheet", "stochmod.exports", "stochmod.triad", "stochmod.report")),
     ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
              "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant",
-             "stochmod.fleet")),
+             "stochmod.fleet", "stochmod._fleet_worker")),
 )
 
 #: Lazy imports the issue allows: an operator returning an object of a module that imports

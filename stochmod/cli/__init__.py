@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import pkgutil
 import sys
 from collections.abc import Sequence
@@ -31,8 +32,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _local_fleet(argv: Sequence[str]) -> bool:
+    """Whether `argv` (not parsed yet) is ``calibrate ... --workers N`` with dask installed: a
+    fleet on a local cluster, whose workers' process server starts before the parser's
+    imports (:func:`stochmod.fleet.start_process_server`)."""
+    return (argv[:1] == ["calibrate"] and not {"-h", "--help"} & set(argv)
+            and any(a == "--workers" or a.startswith("--workers=") for a in argv)
+            and importlib.util.find_spec("distributed") is not None)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; errors on bad input print one line to stderr and return 2."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if _local_fleet(argv):
+        from stochmod.fleet import start_process_server
+
+        start_process_server()  # the workers' imports run beside this process's own
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
