@@ -14,7 +14,10 @@ pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one
 (:func:`single_threaded`, through ``$STOCHMOD_FFT_THREADS``, the default of
 :mod:`stochmod.signal.wv_covariance`), dask's sampling profiler off, and
 glibc's default ``malloc`` (dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh
-``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  Every task records where its time went
+``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  The local cluster's workers
+are forks of a process server that imported the task's modules and loaded its compiled loops
+once (:func:`start_process_server`), so that no worker imports or loads them again.  Every task
+records where its time went
 (:class:`TaskTiming`: wall and CPU time per stage, measured inside the worker), written to
 ``OUT/fleet_tasks.csv``.
 

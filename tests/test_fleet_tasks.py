@@ -113,6 +113,19 @@ def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
     assert forkserver._forkserver._forkserver_pid is None  # stopped with its cluster
 
 
+def test_only_a_local_fleet_command_starts_the_process_server_early():
+    pytest.importorskip("distributed")
+    from stochmod.cli import _local_fleet
+
+    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers", "2"])
+    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers=2"])
+    assert not _local_fleet(["calibrate", "a.npz", "b.npz"])  # serial
+    assert not _local_fleet(["calibrate", "a.npz", "--scheduler", "tcp://host:8786"])
+    assert not _local_fleet(["combine", "a.npz", "--workers", "2"])
+    assert not _local_fleet(["calibrate", "--workers", "2", "--help"])
+    assert not _local_fleet([])
+
+
 @pytest.mark.parametrize("workers", [[], ["--workers", "2"]])
 def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
     if workers:

@@ -47,3 +47,16 @@ def test_lazy_names_resolve_to_their_modules() -> None:
     assert missing == []
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
         stochmod.not_a_name  # noqa: B018
+
+
+def test_a_command_imports_its_own_module_only() -> None:
+    code = ("import sys\nfrom stochmod.cli import _parser_for\n_parser_for(['processes'])\n"
+            "assert 'stochmod.cli.processes' in sys.modules\n"
+            "assert 'stochmod.cli.navigate' not in sys.modules and 'stochmod.nav.filter' not in sys.modules")
+    assert _loaded(code)["networkx"] is False  # calibrate's and select's selection is not loaded
+    from stochmod.cli import _parser_for, _subcommand_modules
+
+    # help and unknown commands get the full parser, which lists every command
+    for argv in ([], ["--help"], ["not-a-command"]):
+        sub = _parser_for(argv)._subparsers._group_actions[0]  # type: ignore[union-attr]
+        assert sorted(sub.choices) == _subcommand_modules()

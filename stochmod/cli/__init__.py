@@ -19,17 +19,32 @@ def _subcommand_modules() -> list[str]:
     return sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every subcommand registered."""
+def _parser(modules: Sequence[str]) -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
     parser = argparse.ArgumentParser(
         prog="stochmod",
         description="Stochastic error models of inertial sensors.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in _subcommand_modules():
+    for name in modules:
         importlib.import_module(f"stochmod.cli.{name}").register(sub)
-    return parser
+    return parser, sub
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the argument parser with every subcommand registered."""
+    return _parser(_subcommand_modules())[0]
+
+
+def _parser_for(argv: Sequence[str]) -> argparse.ArgumentParser:
+    """The parser with only the command that `argv` names, when its module registers it (a
+    command imports its own module's dependencies, not every command's), else the full one
+    (help, unknown commands)."""
+    if argv and argv[0] in _subcommand_modules():
+        parser, sub = _parser([argv[0]])
+        if argv[0] in sub.choices:
+            return parser
+    return build_parser()
 
 
 def _local_fleet(argv: Sequence[str]) -> bool:
@@ -48,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from stochmod.fleet import start_process_server
 
         start_process_server()  # the workers' imports run beside this process's own
-    parser = build_parser()
+    parser = _parser_for(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
