@@ -60,3 +60,12 @@ def test_a_command_imports_its_own_module_only() -> None:
     for argv in ([], ["--help"], ["not-a-command"]):
         sub = _parser_for(argv)._subparsers._group_actions[0]  # type: ignore[union-attr]
         assert sorted(sub.choices) == _subcommand_modules()
+
+
+def test_calibrate_and_every_plugin_load_without_scipy_signal() -> None:
+    # a fleet worker's start (stochmod._fleet_worker) before its warm-up: the calibrate command
+    # and every registered plugin; scipy.signal is for simulations and the classical readings
+    code = ("from stochmod.cli import _parser_for\n_parser_for(['calibrate'])\n"
+            "from stochmod.registry import combiners, processes, readers\n"
+            "assert len(processes()) >= 7 and readers() and len(combiners()) >= 3")
+    assert _loaded(code)["scipy.signal"] is False
