@@ -69,3 +69,21 @@ def test_calibrate_and_every_plugin_load_without_scipy_signal() -> None:
             "from stochmod.registry import combiners, processes, readers\n"
             "assert len(processes()) >= 7 and readers() and len(combiners()) >= 3")
     assert _loaded(code)["scipy.signal"] is False
+
+
+def test_type_checking_block_names_the_lazy_names() -> None:
+    # the package lists each lazy name twice: in _LAZY (run time) and under TYPE_CHECKING
+    # (type checkers, editors); they must agree, module for module
+    import ast
+    import inspect
+
+    import stochmod
+
+    tree = ast.parse(inspect.getsource(stochmod))
+    block = next(n for n in tree.body if isinstance(n, ast.If)
+                 and getattr(n.test, "id", None) == "TYPE_CHECKING")
+    typed: dict[str, set[str]] = {}
+    for node in block.body:
+        assert isinstance(node, ast.ImportFrom)
+        typed.setdefault(node.module or "", set()).update(a.name for a in node.names)
+    assert typed == {m: set(names) for m, names in stochmod._LAZY.items()}
