@@ -85,6 +85,7 @@ def _run(files: list[Path], out: Path, extra: list[str], command: str | None = N
                  for r in csv.DictReader(fh)]
     for t in tasks:  # s from the command's start
         t["start"], t["end"] = t["start"] - epoch, t["end"] - epoch
+        t["process_start"] = t.get("process_start", float("nan")) - epoch  # older checkouts: NaN
     return {"wall": wall, "cpu": cpu, "tasks": tasks, "out": out}
 
 
@@ -102,20 +103,22 @@ def _stage_table(tasks: list[dict]) -> list[str]:
 
 
 def _worker_table(run: dict) -> list[str]:
-    """Per worker process: start-up (the command's start to its first task: imports, the
-    cluster's start), tasks, busy time, idle gaps between its tasks, the tail (its last
+    """Per worker process: when the process started (for a local worker: its fork or spawn,
+    the end of the command's own start), start-up (the command's start to its first task:
+    imports, the cluster's start, the worker's own start), tasks, busy time, idle gaps between its tasks, the tail (its last
     task's end to the run's end), and its first task's wall time (against s/file, the mean:
     what the first task still loads)."""
     by_pid: dict[float, list[dict]] = defaultdict(list)
     for t in run["tasks"]:
         by_pid[t["pid"]].append(t)
-    lines = [f"  {'worker':>8s} {'tasks':>5s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
+    lines = [f"  {'worker':>8s} {'tasks':>5s} {'process':>7s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
              f"{'tail':>6s} {'CPU':>7s} {'s/file':>6s} {'first':>6s} {'faults/file':>11s}"]
     for pid, ts in sorted(by_pid.items()):
         ts.sort(key=lambda t: t["start"])
         gaps = sum(b["start"] - a["end"] for a, b in zip(ts, ts[1:]))
         busy = sum(t["wall"] for t in ts)
-        lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['start']:8.1f} {busy:7.1f} {gaps:6.2f} "
+        lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['process_start']:7.2f} {ts[0]['start']:8.1f} "
+                     f"{busy:7.1f} {gaps:6.2f} "
                      f"{run['wall'] - ts[-1]['end']:6.1f} {sum(t['cpu'] for t in ts):7.1f} "
                      f"{busy / len(ts):6.2f} {ts[0]['wall']:6.2f} "
                      f"{np.mean([t['page_faults'] for t in ts]):11.0f}")

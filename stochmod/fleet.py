@@ -208,7 +208,9 @@ class TaskTiming:
     dask worker its own threads), `thread_cpu` the task thread's alone. `stages` maps a
     stage of :data:`STAGES` (and ``other``, the rest) to its (wall, cpu). `page_faults`
     counts the process's minor faults during the task (fresh memory pages), `threads` its
-    OS threads at the end, `result_bytes` the pickled report returned to the client.
+    OS threads at the end, `result_bytes` the pickled report returned to the client,
+    `process_start` the wall-clock time at which that process started (a worker forked by the
+    local cluster's process server: its fork; NaN without psutil).
     """
 
     unit_name: str
@@ -222,6 +224,7 @@ class TaskTiming:
     page_faults: int
     threads: int
     result_bytes: int
+    process_start: float
     stages: dict[str, tuple[float, float]]
 
     def row(self) -> dict[str, Any]:
@@ -239,6 +242,14 @@ def _minor_faults() -> int:
     except ImportError:  # pragma: no cover - not on Windows
         return 0
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_minflt)
+
+
+def _process_start() -> float:
+    try:
+        import psutil  # a dependency of dask.distributed
+    except ImportError:
+        return math.nan
+    return float(psutil.Process().create_time())
 
 
 def _os_threads() -> int:
@@ -280,7 +291,7 @@ def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: 
                        cpu - sum(c for _, c in stages.values())]
     timing = TaskTiming(Path(args.out).name, socket.gethostname(), os.getpid(), start, time.time(),
                         wall, cpu, time.thread_time() - thread_cpu, _minor_faults() - faults,
-                        _os_threads(), len(pickle.dumps(report)),
+                        _os_threads(), len(pickle.dumps(report)), _process_start(),
                         {k: (float(w), float(c)) for k, (w, c) in stages.items()})
     return report, timing
 

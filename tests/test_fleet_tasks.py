@@ -136,6 +136,7 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         files.append(tmp_path / f"u{i}.npz")
         np.savez(files[-1], gyro_x=model.simulate(2**12, rng=i), freq=FS)
     out = tmp_path / "out"
+    before = time.time()
     assert main(["calibrate", *map(str, files), "--candidates", "WN", "WN+RW", "--no-plots",
                  "--out", str(out), *workers]) == 0
     capsys.readouterr()
@@ -151,5 +152,8 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         assert float(r["figures_wall"]) == 0.0  # --no-plots
         assert float(r["start"]) <= float(r["end"]) and float(r["end"]) - float(r["start"]) >= wall * 0.99
         assert int(r["result_bytes"]) > 1000 and int(r["threads"]) >= 1
+        # the process that ran it started before the task; a worker during this command
+        assert float(r["process_start"]) <= float(r["start"])
+        assert (float(r["process_start"]) > before - 1.0) is bool(workers)
     pids = {int(r["pid"]) for r in rows}
     assert (os.getpid() in pids) is (not workers)  # serially in this process, else in workers
