@@ -8,6 +8,7 @@ returns one by name.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import TYPE_CHECKING, Any
 
 from stochmod.errors import (
@@ -168,9 +169,13 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
-    """The public names of submodules, imported on first use (:data:`_LAZY`), and the
-    registered process families: ``stochmod.GM``."""
+    """The public names of submodules, imported on first use (:data:`_LAZY`), the
+    submodules themselves (``stochmod.datasheet``; a module's own submodules are imported
+    by their importers, as for any package) and the registered process families:
+    ``stochmod.GM``."""
     module = _LAZY_NAMES.get(name)
+    if module is None and name.islower() and importlib.util.find_spec(f"stochmod.{name}"):
+        module = "stochmod"  # a submodule: ``import stochmod`` then ``stochmod.fit.gmwm``
     if module == "stochmod":
         value = importlib.import_module(f"stochmod.{name}")
     elif module is not None:

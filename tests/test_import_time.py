@@ -43,6 +43,7 @@ def test_lazy_names_resolve_to_their_modules() -> None:
 
     assert stochmod.select is select and stochmod.fit_arma is fit_arma
     assert stochmod.examples.__name__ == "stochmod.examples"
+    assert stochmod.datasheet.__name__ == "stochmod.datasheet"  # any submodule, on first use
     missing = [n for n in stochmod.__all__ if not hasattr(stochmod, n)]
     assert missing == []
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
