@@ -25,6 +25,7 @@ import argparse
 import csv
 import json
 import resource
+import shlex
 import shutil
 import subprocess
 import sys
@@ -52,8 +53,11 @@ def _files(folder: Path, n_files: int, n: int) -> list[Path]:
     return paths
 
 
-def _command() -> list[str]:
-    """The ``stochmod`` console script of this environment (or the same entry point)."""
+def _command(given: str | None = None) -> list[str]:
+    """The ``stochmod`` command: `given` (a command line, e.g. another checkout's launcher),
+    else the console script of this environment (or the same entry point)."""
+    if given:
+        return shlex.split(given)
     script = Path(sys.executable).with_name("stochmod")
     if script.exists():
         return [str(script)]
@@ -67,9 +71,9 @@ def _children_cpu() -> float:
     return ru.ru_utime + ru.ru_stime
 
 
-def _run(files: list[Path], out: Path, extra: list[str]) -> dict:
+def _run(files: list[Path], out: Path, extra: list[str], command: str | None = None) -> dict:
     """One calibrate command in a fresh process: wall, CPU of the process tree, task rows."""
-    cmd = [*_command(), "calibrate", *map(str, files), "--candidates", *CANDIDATES,
+    cmd = [*_command(command), "calibrate", *map(str, files), "--candidates", *CANDIDATES,
            "--no-plots", "--out", str(out), *extra]
     cpu, t0, epoch = _children_cpu(), time.perf_counter(), time.time()
     done = subprocess.run(cmd, capture_output=True, text=True)
@@ -81,6 +85,7 @@ def _run(files: list[Path], out: Path, extra: list[str]) -> dict:
                  for r in csv.DictReader(fh)]
     for t in tasks:  # s from the command's start
         t["start"], t["end"] = t["start"] - epoch, t["end"] - epoch
+        t["process_start"] = t.get("process_start", float("nan")) - epoch  # older checkouts: NaN
     return {"wall": wall, "cpu": cpu, "tasks": tasks, "out": out}
 
 
@@ -98,21 +103,25 @@ def _stage_table(tasks: list[dict]) -> list[str]:
 
 
 def _worker_table(run: dict) -> list[str]:
-    """Per worker process: start-up (the command's start to its first task: imports, the
-    cluster's start), tasks, busy time, idle
-    gaps between its tasks, and the tail (its last task's end to the run's end)."""
+    """Per worker process: when the process started (for a local worker: its fork or spawn,
+    the end of the command's own start), start-up (the command's start to its first task:
+    imports, the cluster's start, the worker's own start), tasks, busy time, idle gaps between its tasks, the tail (its last
+    task's end to the run's end), and its first task's wall time (against s/file, the mean:
+    what the first task still loads)."""
     by_pid: dict[float, list[dict]] = defaultdict(list)
     for t in run["tasks"]:
         by_pid[t["pid"]].append(t)
-    lines = [f"  {'worker':>8s} {'tasks':>5s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
-             f"{'tail':>6s} {'CPU':>7s} {'s/file':>6s} {'faults/file':>11s}"]
+    lines = [f"  {'worker':>8s} {'tasks':>5s} {'process':>7s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
+             f"{'tail':>6s} {'CPU':>7s} {'s/file':>6s} {'first':>6s} {'faults/file':>11s}"]
     for pid, ts in sorted(by_pid.items()):
         ts.sort(key=lambda t: t["start"])
         gaps = sum(b["start"] - a["end"] for a, b in zip(ts, ts[1:]))
         busy = sum(t["wall"] for t in ts)
-        lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['start']:8.1f} {busy:7.1f} {gaps:6.2f} "
+        lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['process_start']:7.2f} {ts[0]['start']:8.1f} "
+                     f"{busy:7.1f} {gaps:6.2f} "
                      f"{run['wall'] - ts[-1]['end']:6.1f} {sum(t['cpu'] for t in ts):7.1f} "
-                     f"{busy / len(ts):6.2f} {np.mean([t['page_faults'] for t in ts]):11.0f}")
+                     f"{busy / len(ts):6.2f} {ts[0]['wall']:6.2f} "
+                     f"{np.mean([t['page_faults'] for t in ts]):11.0f}")
     return lines
 
 
@@ -131,6 +140,9 @@ def main() -> None:
     p.add_argument("--rounds", type=int, choices=(1, 2), default=1,
                    help="1: parallel, serial, one-worker; 2: and back again")
     p.add_argument("--no-one-worker", action="store_true", help="skip the one-worker fleet runs")
+    p.add_argument("--command", default=None, metavar="CMD",
+                   help="the stochmod command to time (default: this environment's console "
+                        "script), e.g. 'python /tmp/old/run_stochmod.py' for another checkout")
     a = p.parse_args()
     kinds = ["parallel", "serial"] + ([] if a.no_one_worker else ["one-worker"])
     order = kinds + kinds[::-1] if a.rounds == 2 else kinds
@@ -140,7 +152,7 @@ def main() -> None:
         files = _files(folder, a.files, a.n)
         runs: dict[str, list[dict]] = defaultdict(list)
         for k, kind in enumerate(order):
-            runs[kind].append(_run(files, folder / f"{kind}{k}", extra[kind]))
+            runs[kind].append(_run(files, folder / f"{kind}{k}", extra[kind], a.command))
         same = _same_results(files, [r["out"] for rs in runs.values() for r in rs])
     best = {kind: min(rs, key=lambda r: r["wall"]) for kind, rs in runs.items()}
     par, ser = best["parallel"], best["serial"]

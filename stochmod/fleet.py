@@ -14,7 +14,10 @@ pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one
 (:func:`single_threaded`, through ``$STOCHMOD_FFT_THREADS``, the default of
 :mod:`stochmod.signal.wv_covariance`), dask's sampling profiler off, and
 glibc's default ``malloc`` (dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh
-``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  Every task records where its time went
+``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  The local cluster's workers
+are forks of a process server that imported the task's modules and loaded its compiled loops
+once (:func:`start_process_server`), so that no worker imports or loads them again.  Every task
+records where its time went
 (:class:`TaskTiming`: wall and CPU time per stage, measured inside the worker), written to
 ``OUT/fleet_tasks.csv``.
 
@@ -40,6 +43,7 @@ import copy
 import csv
 import functools
 import math
+import multiprocessing
 import os
 import pickle
 import socket
@@ -54,11 +58,10 @@ import numpy as np
 
 from stochmod.errors import InputError
 from stochmod.reporting import format_table
-from stochmod.signal.wv_covariance import THREADS_VARIABLE
 
 __all__ = ["OUTLIER_Z", "MIN_UNITS", "FleetRow", "fleet_rows", "robust_z", "write_fleet_csv",
            "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne",
-           "TaskTiming", "STAGES", "single_threaded", "write_task_csv"]
+           "TaskTiming", "STAGES", "single_threaded", "write_task_csv", "start_process_server"]
 
 #: |robust z| above which a unit is an outlier on a quantity.
 OUTLIER_Z = 3.5
@@ -77,6 +80,11 @@ STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": 
 _MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
                          f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None}
+#: What the local cluster's process server imports before it forks the workers.
+_SERVER_PRELOAD = ("distributed", "stochmod._fleet_worker")
+_HAS_SERVER = "forkserver" in multiprocessing.get_all_start_methods()  # not on Windows
+#: The workers' environment when dask's configuration is not loaded yet (its defaults).
+_WORKER_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
 @attrs.frozen
@@ -200,7 +208,9 @@ class TaskTiming:
     dask worker its own threads), `thread_cpu` the task thread's alone. `stages` maps a
     stage of :data:`STAGES` (and ``other``, the rest) to its (wall, cpu). `page_faults`
     counts the process's minor faults during the task (fresh memory pages), `threads` its
-    OS threads at the end, `result_bytes` the pickled report returned to the client.
+    OS threads at the end, `result_bytes` the pickled report returned to the client,
+    `process_start` the wall-clock time at which that process started (a worker forked by the
+    local cluster's process server: its fork; NaN without psutil).
     """
 
     unit_name: str
@@ -214,6 +224,7 @@ class TaskTiming:
     page_faults: int
     threads: int
     result_bytes: int
+    process_start: float
     stages: dict[str, tuple[float, float]]
 
     def row(self) -> dict[str, Any]:
@@ -231,6 +242,14 @@ def _minor_faults() -> int:
     except ImportError:  # pragma: no cover - not on Windows
         return 0
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_minflt)
+
+
+def _process_start() -> float:
+    try:
+        import psutil  # a dependency of dask.distributed
+    except ImportError:
+        return math.nan
+    return float(psutil.Process().create_time())
 
 
 def _os_threads() -> int:
@@ -251,6 +270,8 @@ def single_threaded() -> Iterator[None]:
     """
     from scipy import fft
 
+    from stochmod.signal.wv_covariance import THREADS_VARIABLE
+
     with _environ(THREADS_VARIABLE, "1"), fft.set_workers(1):
         yield
 
@@ -270,7 +291,7 @@ def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: 
                        cpu - sum(c for _, c in stages.values())]
     timing = TaskTiming(Path(args.out).name, socket.gethostname(), os.getpid(), start, time.time(),
                         wall, cpu, time.thread_time() - thread_cpu, _minor_faults() - faults,
-                        _os_threads(), len(pickle.dumps(report)),
+                        _os_threads(), len(pickle.dumps(report)), _process_start(),
                         {k: (float(w), float(c)) for k, (w, c) in stages.items()})
     return report, timing
 
@@ -297,10 +318,57 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     else:
         import dask
 
-        with dask.config.set(_LOCAL_CLUSTER_CONFIG), _environ(_MALLOC_TRIM, None), \
+        config = dict(_LOCAL_CLUSTER_CONFIG)
+        if _HAS_SERVER:  # else dask's default: spawned workers
+            start_process_server()
+            config["distributed.worker.multiprocessing-method"] = "forkserver"
+        with _stopping_process_server(), dask.config.set(config), _environ(_MALLOC_TRIM, None), \
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              dashboard_address=None) as cluster, Client(cluster) as client:
             yield client
+
+
+def start_process_server() -> None:
+    """Start the process server that forks the local cluster's workers, warm.
+
+    The server imports what a task needs, loads the plugins and the compiled loops of a first
+    task (:mod:`stochmod._fleet_worker`) once, while this process goes on (``stochmod
+    calibrate ... --workers N`` calls this before its own imports); each worker then starts
+    as a fork of the server, in milliseconds and warm, instead of as a fresh interpreter that
+    imports everything again and loads the loops in its first task. Returns at once, also
+    when the server runs already. The server has one thread, so a fork inherits no lock held
+    by another thread (numba's compiler lock: docs/fleet.md). It starts with the workers'
+    environment, which its forks cannot change any more: dask's ``pre-spawn-environ``
+    (BLAS and OpenMP on one thread) without ``MALLOC_TRIM_THRESHOLD_``.
+    """
+    import dask
+    from multiprocessing import forkserver
+
+    env = _WORKER_ENV | {k: str(v) for k, v in
+                         dask.config.get("distributed.nanny.pre-spawn-environ", default={}).items()}
+    env.pop(_MALLOC_TRIM, None)
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(_environ(_MALLOC_TRIM, None))
+        for name, value in env.items():
+            stack.enter_context(_environ(name, value))
+        forkserver.ensure_running()
+
+
+@contextlib.contextmanager
+def _stopping_process_server() -> Iterator[None]:
+    """Stop the process server after the enclosed cluster closed, and wait for it: the next
+    cluster starts with the environment of its time, and the workers' CPU time is counted
+    in this process's children (``RUSAGE_CHILDREN``) as with spawned workers."""
+    try:
+        yield
+    finally:
+        if _HAS_SERVER:
+            from multiprocessing import forkserver
+
+            stop = getattr(forkserver._forkserver, "_stop", None)  # CPython's tests use it
+            if stop is not None:
+                stop()
 
 
 @contextlib.contextmanager

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import stochmod
+import stochmod.fit.weighting  # used as stochmod.fit.weighting below
 from stochmod.errors import EstimationError, SpecError
 from stochmod.fit import results as results_module
 from stochmod.fit.engine import BOUND, Problem, canonical, refine, resolve_model, sandwich, search

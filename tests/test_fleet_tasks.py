@@ -12,6 +12,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
+from stochmod import fleet
 from stochmod.fleet import STAGES, SerialExecutor, _client, single_threaded
 
 FS = 50.0
@@ -81,6 +82,50 @@ def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim(mo
     assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"  # this process's own, restored
 
 
+def _worker_warmth() -> dict:
+    import sys
+
+    from stochmod.signal import haar_jit, spectrum_jit
+
+    return {"parent": os.getppid(), "warm_module": "stochmod._fleet_worker" in sys.modules,
+            "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures)],
+            "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_")}
+
+
+@pytest.mark.skipif(not fleet._HAS_SERVER, reason="no forkserver start method on this platform")
+def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
+    pytest.importorskip("distributed")
+    from multiprocessing import forkserver
+
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    with _client(2, None) as client:
+        server = forkserver._forkserver._forkserver_pid
+        setups = list(client.run(_worker_warmth).values())
+    assert len(setups) == 2
+    for setup in setups:
+        # forked by the server (not this process), which had imported the task's modules and
+        # loaded the WV sweep's and eq. 17's compiled loops before any task ran
+        assert setup["parent"] == server != os.getpid()
+        assert setup["warm_module"] and min(setup["loops"]) >= 1
+        assert setup["blas"] == "1" and setup["malloc"] is None  # the server's environment
+    assert forkserver._forkserver._forkserver_pid is None  # stopped with its cluster
+
+
+def test_only_a_local_fleet_command_starts_the_process_server_early():
+    pytest.importorskip("distributed")
+    from stochmod.cli import _local_fleet
+
+    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers", "2"])
+    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers=2"])
+    assert not _local_fleet(["calibrate", "a.npz", "b.npz"])  # serial
+    assert not _local_fleet(["calibrate", "a.npz", "--scheduler", "tcp://host:8786"])
+    assert not _local_fleet(["combine", "a.npz", "--workers", "2"])
+    assert not _local_fleet(["calibrate", "--workers", "2", "--help"])
+    assert not _local_fleet([])
+
+
 @pytest.mark.parametrize("workers", [[], ["--workers", "2"]])
 def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
     if workers:
@@ -91,6 +136,7 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         files.append(tmp_path / f"u{i}.npz")
         np.savez(files[-1], gyro_x=model.simulate(2**12, rng=i), freq=FS)
     out = tmp_path / "out"
+    before = time.time()
     assert main(["calibrate", *map(str, files), "--candidates", "WN", "WN+RW", "--no-plots",
                  "--out", str(out), *workers]) == 0
     capsys.readouterr()
@@ -106,5 +152,8 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         assert float(r["figures_wall"]) == 0.0  # --no-plots
         assert float(r["start"]) <= float(r["end"]) and float(r["end"]) - float(r["start"]) >= wall * 0.99
         assert int(r["result_bytes"]) > 1000 and int(r["threads"]) >= 1
+        # the process that ran it started before the task; a worker during this command
+        assert float(r["process_start"]) <= float(r["start"])
+        assert (float(r["process_start"]) > before - 1.0) is bool(workers)
     pids = {int(r["pid"]) for r in rows}
     assert (os.getpid() in pids) is (not workers)  # serially in this process, else in workers

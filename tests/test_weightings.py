@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import stochmod
+import stochmod.fit.selection  # used as stochmod.fit.selection below
 from stochmod.cli import main
 from stochmod.errors import InputError, StochmodError
 from stochmod.fit.weighting import WEIGHTINGS

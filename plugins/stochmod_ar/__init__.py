@@ -36,7 +36,6 @@ import attrs
 import numpy as np
 import scipy.linalg
 import scipy.optimize
-import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
@@ -354,6 +353,8 @@ class AR(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """The recursion (scipy.signal.lfilter) started from the stationary law of the p past values."""
+        import scipy.signal  # here: importing it costs 0.6-1 s, only simulations use it
+
         self.require_values()
         n = check_positive_int(n, name="n")
         g = as_generator(rng)

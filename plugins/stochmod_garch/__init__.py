@@ -18,7 +18,7 @@ The estimators are the core's :func:`stochmod.signal.arma.select_arma` and
 from __future__ import annotations
 
 import concurrent.futures
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import attrs
 import numpy as np
@@ -27,9 +27,10 @@ from stochmod._validation import check_positive_int
 from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
 from stochmod.errors import InputError
 from stochmod.hookspecs import hookimpl
-from stochmod.signal import garch_jit
-from stochmod.signal.arma import ArmaFit, fit_arma, select_arma
-from stochmod.signal.garch import GarchFit, fit_garch, select_garch
+
+if TYPE_CHECKING:  # the estimators are imported where they run (they import scipy.signal)
+    from stochmod.signal.arma import ArmaFit
+    from stochmod.signal.garch import GarchFit
 
 __all__ = ["GarchCombiner", "SensorVolatility", "stochmod_combiners"]
 
@@ -64,6 +65,9 @@ def _fit_axis(r: np.ndarray, sensor: int, axis: int | None, arma: Any, garch: An
               max_order: int, lags: int, select_samples: int
               ) -> tuple[np.ndarray, np.ndarray, SensorVolatility]:
     """Conditional mean (T,), conditional variance (T,) and the fits of one residual series."""
+    from stochmod.signal.arma import fit_arma, select_arma
+    from stochmod.signal.garch import fit_garch, select_garch
+
     arma_order = _orders(arma, "arma")
     if arma_order is None:
         arma_order = select_arma(r[:select_samples], max_p=max_order, max_q=max_order).order
@@ -114,6 +118,8 @@ class GarchCombiner:
             Processes fitting the sensors (and axes) in parallel; None or 1: one after another
             in this process. The fits are independent, so the result is the serial one.
         """
+        from stochmod.signal import garch_jit
+
         select_samples = check_positive_int(select_samples, name="select_samples", minimum=100)
         workers = 1 if workers is None else check_positive_int(workers, name="workers")
         x = as_sensor_array(x, min_length=100)

@@ -30,7 +30,6 @@ from typing import Any, ClassVar
 
 import attrs
 import numpy as np
-import scipy.signal
 from numpy.typing import ArrayLike
 
 from stochmod._validation import as_signal, check_freq, check_positive_int
@@ -309,6 +308,8 @@ class GM(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """Stationary AR(1) recursion (scipy.signal.lfilter), started from N(0, sigma2)."""
+        import scipy.signal  # here: importing it costs 0.6-1 s, only simulations use it
+
         self.require_values()
         n = check_positive_int(n, name="n")
         phi, q = self.to_ar1(freq)

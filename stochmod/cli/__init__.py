@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import pkgutil
 import sys
 from collections.abc import Sequence
@@ -18,22 +19,51 @@ def _subcommand_modules() -> list[str]:
     return sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every subcommand registered."""
+def _parser(modules: Sequence[str]) -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
     parser = argparse.ArgumentParser(
         prog="stochmod",
         description="Stochastic error models of inertial sensors.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in _subcommand_modules():
+    for name in modules:
         importlib.import_module(f"stochmod.cli.{name}").register(sub)
-    return parser
+    return parser, sub
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the argument parser with every subcommand registered."""
+    return _parser(_subcommand_modules())[0]
+
+
+def _parser_for(argv: Sequence[str]) -> argparse.ArgumentParser:
+    """The parser with only the command that `argv` names, when its module registers it (a
+    command imports its own module's dependencies, not every command's), else the full one
+    (help, unknown commands)."""
+    if argv and argv[0] in _subcommand_modules():
+        parser, sub = _parser([argv[0]])
+        if argv[0] in sub.choices:
+            return parser
+    return build_parser()
+
+
+def _local_fleet(argv: Sequence[str]) -> bool:
+    """Whether `argv` (not parsed yet) is ``calibrate ... --workers N`` with dask installed: a
+    fleet on a local cluster, whose workers' process server starts before the parser's
+    imports (:func:`stochmod.fleet.start_process_server`)."""
+    return (argv[:1] == ["calibrate"] and not {"-h", "--help"} & set(argv)
+            and any(a == "--workers" or a.startswith("--workers=") for a in argv)
+            and importlib.util.find_spec("distributed") is not None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; errors on bad input print one line to stderr and return 2."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if _local_fleet(argv):
+        from stochmod.fleet import start_process_server
+
+        start_process_server()  # the workers' imports run beside this process's own
+    parser = _parser_for(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)

@@ -1,0 +1,90 @@
+"""What ``import stochmod`` and the ``stochmod`` command load at start-up.
+
+Every ``stochmod`` command, and every fleet worker process (spawned, it imports the console
+script's ``stochmod.cli`` first), pays its imports before any work. scipy.signal, scipy.stats,
+networkx and numba cost 1-2 s together and only some paths use them, so they are imported
+where they are used (``stochmod.__getattr__``: the top-level names on first access). These
+tests run a fresh interpreter and read its ``sys.modules``, so the gain cannot silently come
+back through a new module-level import.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("scipy.signal", "scipy.stats", "networkx", "numba")
+
+
+def _loaded(code: str) -> dict[str, bool]:
+    """Which of :data:`HEAVY` a fresh interpreter has imported after running `code`."""
+    probe = f"{code}\nimport json, sys\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+@pytest.mark.parametrize("code", ["import stochmod.cli", "import stochmod",
+                                  "from stochmod import InputError, get_process"])
+def test_package_import_loads_no_heavy_module(code: str) -> None:
+    assert _loaded(code) == dict.fromkeys(HEAVY, False)
+
+
+def test_lazy_names_resolve_to_their_modules() -> None:
+    # the probe must see the heavy modules once a name that needs them is used, else the
+    # test above could pass on a broken probe
+    loaded = _loaded("import stochmod\nstochmod.fit_arma\nstochmod.select\nstochmod.psd_reading")
+    assert loaded["scipy.signal"] and loaded["networkx"] and loaded["scipy.stats"]
+    import stochmod
+    from stochmod.fit.selection import select
+    from stochmod.signal.arma import fit_arma
+
+    assert stochmod.select is select and stochmod.fit_arma is fit_arma
+    assert stochmod.examples.__name__ == "stochmod.examples"
+    assert stochmod.datasheet.__name__ == "stochmod.datasheet"  # any submodule, on first use
+    missing = [n for n in stochmod.__all__ if not hasattr(stochmod, n)]
+    assert missing == []
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        stochmod.not_a_name  # noqa: B018
+
+
+def test_a_command_imports_its_own_module_only() -> None:
+    code = ("import sys\nfrom stochmod.cli import _parser_for\n_parser_for(['processes'])\n"
+            "assert 'stochmod.cli.processes' in sys.modules\n"
+            "assert 'stochmod.cli.navigate' not in sys.modules and 'stochmod.nav.filter' not in sys.modules")
+    assert _loaded(code)["networkx"] is False  # calibrate's and select's selection is not loaded
+    from stochmod.cli import _parser_for, _subcommand_modules
+
+    # help and unknown commands get the full parser, which lists every command
+    for argv in ([], ["--help"], ["not-a-command"]):
+        sub = _parser_for(argv)._subparsers._group_actions[0]  # type: ignore[union-attr]
+        assert sorted(sub.choices) == _subcommand_modules()
+
+
+def test_calibrate_and_every_plugin_load_without_scipy_signal() -> None:
+    # a fleet worker's start (stochmod._fleet_worker) before its warm-up: the calibrate command
+    # and every registered plugin; scipy.signal is for simulations and the classical readings
+    code = ("from stochmod.cli import _parser_for\n_parser_for(['calibrate'])\n"
+            "from stochmod.registry import combiners, processes, readers\n"
+            "assert len(processes()) >= 7 and readers() and len(combiners()) >= 3")
+    assert _loaded(code)["scipy.signal"] is False
+
+
+def test_type_checking_block_names_the_lazy_names() -> None:
+    # the package lists each lazy name twice: in _LAZY (run time) and under TYPE_CHECKING
+    # (type checkers, editors); they must agree, module for module
+    import ast
+    import inspect
+
+    import stochmod
+
+    tree = ast.parse(inspect.getsource(stochmod))
+    block = next(n for n in tree.body if isinstance(n, ast.If)
+                 and getattr(n.test, "id", None) == "TYPE_CHECKING")
+    typed: dict[str, set[str]] = {}
+    for node in block.body:
+        assert isinstance(node, ast.ImportFrom)
+        typed.setdefault(node.module or "", set()).update(a.name for a in node.names)
+    assert typed == {m: set(names) for m, names in stochmod._LAZY.items()}
