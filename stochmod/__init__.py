@@ -61,15 +61,9 @@ _LAZY_NAMES = {name: module for module, names in _LAZY.items() for name in names
 
 if TYPE_CHECKING:  # the same names for type checkers and editors
     from stochmod import examples, units
-    from stochmod.classical.pipelines import (
-        ModelComparison,
-        acf_gm_model,
-        av_model,
-        avwd_model,
-        compare_models,
-        denoised_ar_model,
-        psd_model,
-    )
+    from stochmod.classical.pipelines import (ModelComparison, acf_gm_model, av_model,
+                                              avwd_model, compare_models, denoised_ar_model,
+                                              psd_model)
     from stochmod.combination import CombinationResult, combine
     from stochmod.fit.gmwm import GMWMResult, gmwm
     from stochmod.fit.selection import SelectionResult, candidate_lattice, select
