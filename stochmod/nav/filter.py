@@ -33,18 +33,32 @@ IMU epochs around the stamp), gated by a chi-square test on the normalised innov
 back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
 is zero again.
 
-Error model (``error_model``). ``"psi"`` (default) holds the covariance of ``(dr, dv, psi)``
-across each feedback, the first-order reset of the model above. ``"modified-phi"`` is
-Scherzinger & Reid's modified phi-angle model, the one pyins uses: its velocity error is
-``dv' = dv - v_hat x psi`` (the specific force moves out of F into that definition). Its F is
-the psi model's carried into ``dv'`` (the two propagate the same covariance to 5e-6 of the
-correlation scale at the same linearisation point, docs/navigation_real_drive.md), so the
-propagation is done in the psi form; what differs is the feedback: ``v_hat`` changes by the
-velocity correction ``dv_hat`` while the covariance is held in ``(dv', psi)``, i.e. in stochmod's
-states ``P <- A P A'`` with ``A = I + [dv_hat x]`` in the velocity-attitude block. The two
-resets are each first order in their own states and differ at second order; on the n380 drive
-the choice decides how much heading information the filter takes at rest, and with it the
-tilt / accelerometer-bias split (docs/navigation_real_drive.md).
+Error model (``error_model``): how the estimate is fed back and where the covariance is held
+across the feedback (the reset). Write ``e`` for the error before a feedback, ``e_hat`` for the
+applied estimate and ``e+ = g(e, e_hat)`` for the error after it; the reset is ``P <- G P G'``
+with ``G = dg/de`` at ``e = e_hat`` (Groves 2013, Chapter 14 on the closed-loop correction of the INS;
+Sola 2017, "Quaternion kinematics for the error-state Kalman filter", Section 7.2).
+
+- ``"psi"`` (default): ``v <- v_hat - dv_hat``, position and sensor states likewise, and
+  ``C_nb <- Exp(psi_hat) C_nb_hat``; ``G = I`` (the first-order reset).
+- ``"psi-exact"``: the same feedback with its exact Jacobian. Position, velocity and the
+  sensor states are corrected additively, so their rows of ``G`` are the identity (to
+  ``|dr_hat| / R ~ 1e-6``: the radii of curvature at the corrected latitude; the psi angle is
+  defined against the computed navigation frame, so moving the position does not move it).
+  The attitude error ``C_nb_hat = Exp(-psi) C_nb`` after the correction is ``Exp(-psi+) =
+  Exp(psi_hat) Exp(-psi)``, whose derivative at ``psi = psi_hat`` is the left Jacobian of SO(3):
+  ``G[psi, psi] = J_l(psi_hat) = I + [psi_hat x]/2 + O(psi_hat^2)``.
+- ``"modified-phi"``: Scherzinger & Reid's modified phi-angle model, the one pyins uses: the
+  velocity error ``dv' = v_hat - Exp(psi)' v`` (``dv - v_hat x psi`` to first order; the
+  specific force moves out of F into that definition). Its F is the psi model's carried into
+  ``dv'`` (the two propagate the same covariance to 5e-6 of the correlation scale at the same
+  linearisation point, docs/navigation_real_drive.md), so the propagation is done in the psi
+  form. Its feedback is the exact injection of its own error, ``v <- Exp(psi_hat) (v_hat -
+  dv'_hat)`` (pyins' ``correct_pva``), and its reset holds the covariance in ``(dv', psi)``
+  while ``v_hat`` moves by the applied change ``Delta v``: in stochmod's states ``G = I +
+  [Delta v x]`` in the velocity-attitude block. On the n380 drive this decides how much
+  heading information the filter takes at rest, and with it the tilt / accelerometer-bias split
+  (docs/navigation_real_drive.md).
 """
 
 from __future__ import annotations
@@ -84,9 +98,9 @@ __all__ = ["ERROR_MODELS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
 
-#: The error models of :class:`LooselyCoupledFilter` (module notes): where the covariance is
-#: held across a feedback.
-ERROR_MODELS = ("psi", "modified-phi")
+#: The error models of :class:`LooselyCoupledFilter` (module notes): how the estimate is fed back
+#: and where the covariance is held across the feedback.
+ERROR_MODELS = ("psi", "psi-exact", "modified-phi")
 
 
 @attrs.frozen
@@ -385,6 +399,34 @@ def _skew(v: Sequence[float]) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
+def _rotvec_dcm(phi: np.ndarray) -> np.ndarray:
+    """The rotation matrix ``Exp([phi x])`` of a rotation vector (rad; Rodrigues)."""
+    a2 = float(phi @ phi)
+    S = _skew(phi)
+    if a2 < 1e-8:  # series: the neglected terms are below 1e-18
+        b, c = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0
+    else:
+        a = math.sqrt(a2)
+        b, c = math.sin(a) / a, (1.0 - math.cos(a)) / a2
+    return np.eye(3) + b * S + c * (S @ S)
+
+
+def _left_jacobian(phi: np.ndarray) -> np.ndarray:
+    """Left Jacobian of SO(3) at the rotation vector `phi` (rad), ``I + (1 - cos a)/a^2 [phi x]
+    + (a - sin a)/a^3 [phi x]^2`` with ``a = |phi|``: ``Exp(phi + e) = Exp(J_l(phi) e) Exp(phi)``
+    to first order in ``e`` (Sola 2017, "Quaternion kinematics for the error-state Kalman
+    filter", the SO(3) Jacobians and the ESKF reset, Section 7.2; its first-order form there
+    is ``I + [phi/2 x]``)."""
+    a2 = float(phi @ phi)
+    S = _skew(phi)
+    if a2 < 1e-8:
+        b, c = 0.5 - a2 / 24.0, 1.0 / 6.0 - a2 / 120.0
+    else:
+        a = math.sqrt(a2)
+        b, c = (1.0 - math.cos(a)) / a2, (a - math.sin(a)) / (a2 * a)
+    return np.eye(3) + b * S + c * (S @ S)
+
+
 def _dcm(q: Sequence[float]) -> np.ndarray:
     """C_nb of a scalar-first quaternion tuple (Gonzalez eq. 14), without numpy overhead."""
     q0, q1, q2, q3 = q
@@ -487,10 +529,12 @@ class LooselyCoupledFilter:
         Tc``, with initial variance ``q * record`` instead of its unidentified stationary
         ``sigma^2``; a warning and ``NavResult.random_walks`` report each one. None (default):
         the models are taken as they are.
-    error_model : {"psi", "modified-phi"}
+    error_model : {"psi", "psi-exact", "modified-phi"}
         ``"psi"`` (default): the covariance of ``(dr, dv, psi)`` is held across each feedback.
-        ``"modified-phi"``: Scherzinger & Reid's modified phi-angle model as pyins uses it, the
-        covariance of ``(dr, dv - v_hat x psi, psi)`` is held instead (module notes).
+        ``"psi-exact"``: the same feedback with its exact reset Jacobian (the left Jacobian of
+        SO(3) at the attitude correction). ``"modified-phi"``: Scherzinger & Reid's modified
+        phi-angle model as pyins uses it, the covariance of ``(dr, dv - v_hat x psi, psi)`` is
+        held instead (module notes).
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
@@ -762,10 +806,21 @@ class _Run:
         mech.lat -= d[0] / (rn + mech.h)
         mech.lon -= d[1] / ((re + mech.h) * math.cos(mech.lat))
         mech.h += d[2]
+        model = self.flt.error_model
         vn, ve, vd = mech.v
-        mech.v = (vn - d[3], ve - d[4], vd - d[5])
-        if self.flt.error_model == "modified-phi":
-            self._hold_modified((-d[3], -d[4], -d[5]))
+        if model == "modified-phi":
+            # the exact injection of the modified velocity error dv' = v_hat - R(psi)' v:
+            # v <- R(psi_hat) (v_hat - dv'_hat), dv'_hat = dv_hat - v_hat x psi_hat
+            # (pyins' InsErrorModel.correct_pva); then hold P in (dv', psi) across the change
+            v = np.array(mech.v)
+            new = _rotvec_dcm(dx[6:9]) @ (v - dx[3:6] + np.cross(v, dx[6:9]))
+            mech.v = (float(new[0]), float(new[1]), float(new[2]))
+            self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
+                                                             _skew(new - v)]))
+        else:
+            mech.v = (vn - d[3], ve - d[4], vd - d[5])
+            if model == "psi-exact":
+                self._reset(slice(6, 9), slice(6, 9), _left_jacobian(dx[6:9]))
         # eq. 26 in multiplicative form: q <- q(psi) * q
         px, py, pz = d[6:9]
         a = math.sqrt(px * px + py * py + pz * pz)
@@ -783,13 +838,14 @@ class _Run:
             self.s = self.s - dx[9:]
             self.corr = self.sens.H @ self.s
 
-    def _hold_modified(self, dvel: tuple[float, float, float]) -> None:
-        """Hold the covariance of the modified velocity error ``dv - v_hat x psi`` while
-        ``v_hat`` changes by `dvel` (m/s): ``P <- A P A'`` with ``A = I + [dvel x]`` in the
-        (velocity, attitude) block (module notes, ``error_model="modified-phi"``)."""
-        A = self._eye.copy()
-        A[3:6, 6:9] = _skew(dvel)
-        P = A @ self.P @ A.T
+    def _reset(self, rows: slice, cols: slice, block: np.ndarray) -> None:
+        """The reset of the error state's covariance across a feedback, ``P <- G P G'`` with
+        ``G`` the identity except ``G[rows, cols] = block`` (`rows` inside `cols`): the
+        Jacobian of the error after the feedback with respect to the error before it (module
+        notes, ``error_model``)."""
+        P = self.P.copy()
+        P[rows] = block @ self.P[cols]
+        P[:, rows] = P[:, cols] @ block.T
         self.P = 0.5 * (P + P.T)
 
     # -------------------------------------------------------------- loop
