@@ -12,7 +12,8 @@ same data; printed per seed and on average: the maximum horizontal error in each
 the mean NEES of the 9 navigation states (9 for an honest filter), and the paired difference
 of each other model minus psi with its standard error.
 
-Run ``python bench/nav_reset_emulation.py [--seeds 12] [--still 120]`` (~9 s a seed here).
+Run ``python bench/nav_reset_emulation.py [--seeds 12] [--first-seed 0] [--still 120]``
+(~9 s a seed here).
 """
 
 from __future__ import annotations
@@ -84,12 +85,13 @@ def one_seed(truth, clean: ImuData, outages, seed: int) -> dict[str, tuple[np.nd
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--first-seed", type=int, default=0, help="seeds FIRST .. FIRST+N-1")
     parser.add_argument("--still", type=float, default=120.0, help="standstill at the start, s")
     args = parser.parse_args(argv)
     truth, outages = drive(args.still)
     clean = ideal_imu(truth, "increment")
     runs = []
-    for seed in range(args.seeds):
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
         runs.append(one_seed(truth, clean, outages, seed))
         print(f"seed {seed}: " + "; ".join(f"{m} {np.round(e, 1)} m" for m, (e, _) in
                                              runs[-1].items()), flush=True)

@@ -36,8 +36,8 @@ is zero again.
 Error model (``error_model``): how the estimate is fed back and where the covariance is held
 across the feedback (the reset). Write ``e`` for the error before a feedback, ``e_hat`` for the
 applied estimate and ``e+ = g(e, e_hat)`` for the error after it; the reset is ``P <- G P G'``
-with ``G = dg/de`` at ``e = e_hat`` (Groves 2013, Chapter 14 on the closed-loop correction of the INS;
-Sola 2017, "Quaternion kinematics for the error-state Kalman filter", Section 7.2).
+with ``G = dg/de`` at ``e = e_hat`` (Groves 2013, Chapter 14 on the closed-loop correction of
+the INS; Sola 2017, "Quaternion kinematics for the error-state Kalman filter", Section 7.2).
 
 - ``"psi"`` (default): ``v <- v_hat - dv_hat``, position and sensor states likewise, and
   ``C_nb <- Exp(psi_hat) C_nb_hat``; ``G = I`` (the first-order reset).
@@ -56,7 +56,9 @@ Sola 2017, "Quaternion kinematics for the error-state Kalman filter", Section 7.
   form. Its feedback is the exact injection of its own error, ``v <- Exp(psi_hat) (v_hat -
   dv'_hat)`` (pyins' ``correct_pva``), and its reset holds the covariance in ``(dv', psi)``
   while ``v_hat`` moves by the applied change ``Delta v``: in stochmod's states ``G = I +
-  [Delta v x]`` in the velocity-attitude block. On the n380 drive this decides how much
+  [Delta v x]`` in the velocity-attitude block. That is the first-order reset of this model, as
+  pyins has it (its exact Jacobian in ``(dv', psi)`` would be ``Exp(psi_hat)`` on ``dv'`` and
+  ``J_l(psi_hat)`` on ``psi``). On the n380 drive this decides how much
   heading information the filter takes at rest, and with it the tilt / accelerometer-bias split
   (docs/navigation_real_drive.md).
 """

@@ -70,27 +70,30 @@ def test_feedback_holds_the_covariance_of_its_own_states(truth, clean_imu, monke
 
 
 @pytest.mark.slow
-def test_modified_phi_filter_is_honest_and_close_to_psi(truth, clean_imu):
-    """Seeded emulations with the filter's own error model: the modified-phi filter's average
-    NEES over runs inside the 95% band, and its trajectory within a fraction of a sigma of the
-    psi filter's (the two differ at second order)."""
+def test_other_error_models_are_honest_and_close_to_psi(truth, clean_imu):
+    """Seeded emulations with the filter's own error model: the psi-exact and modified-phi
+    filters' average NEES over runs inside the 95% band, and their trajectories within a
+    fraction of a sigma of the psi filter's (they differ at second order)."""
     runs = 3
-    nees, gaps = [], []
+    others = [m for m in nf.ERROR_MODELS if m != "psi"]
+    nees, gaps = {m: [] for m in others}, {m: [] for m in others}
     for seed in range(runs):
         imu, gnss, init, _ = _emulate(truth, clean_imu, seed)
         out = {m: _filter(error_model=m).run(imu.time, imu.gyro, imu.accel, kind="increment",
                                              gnss=gnss, init=init, truth=truth)
                for m in nf.ERROR_MODELS}
-        mod, psi = out["modified-phi"], out["psi"]
-        nees.append(mod.nees[mod.epoch_time > 10.0])
-        north = (mod.lat - psi.lat) * np.pi / 180 * 6.37e6
-        gaps.append(np.abs(north).max() / psi.sd_position[:, 0].mean())
-    mean = np.mean([x.mean() for x in nees])
+        psi = out["psi"]
+        for m in others:
+            nees[m].append(out[m].nees[out[m].epoch_time > 10.0])
+            north = (out[m].lat - psi.lat) * np.pi / 180 * 6.37e6
+            gaps[m].append(np.abs(north).max() / psi.sd_position[:, 0].mean())
     lo, hi = chi2.ppf([0.025, 0.975], 9 * runs) / runs
-    print(f"modified-phi mean NEES {mean:.3f} band [{lo:.3f}, {hi:.3f}], "
-          f"largest north gap to psi {max(gaps):.3f} sigma")
-    assert lo < mean < hi, (mean, lo, hi)
-    assert 0.0 < max(gaps) < 0.5
+    for m in others:
+        mean = np.mean([x.mean() for x in nees[m]])
+        print(f"{m} mean NEES {mean:.3f} band [{lo:.3f}, {hi:.3f}], "
+              f"largest north gap to psi {max(gaps[m]):.3f} sigma")
+        assert lo < mean < hi, (m, mean, lo, hi)
+        assert 0.0 < max(gaps[m]) < 0.5, m
 
 
 def test_an_unknown_error_model_is_refused():
