@@ -401,18 +401,6 @@ def _skew(v: Sequence[float]) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
-def _rotvec_dcm(phi: np.ndarray) -> np.ndarray:
-    """The rotation matrix ``Exp([phi x])`` of a rotation vector (rad; Rodrigues)."""
-    a2 = float(phi @ phi)
-    S = _skew(phi)
-    if a2 < 1e-8:  # series: the neglected terms are below 1e-18
-        b, c = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0
-    else:
-        a = math.sqrt(a2)
-        b, c = math.sin(a) / a, (1.0 - math.cos(a)) / a2
-    return np.eye(3) + b * S + c * (S @ S)
-
-
 def _left_jacobian(phi: np.ndarray) -> np.ndarray:
     """Left Jacobian of SO(3) at the rotation vector `phi` (rad), ``I + (1 - cos a)/a^2 [phi x]
     + (a - sin a)/a^3 [phi x]^2`` with ``a = |phi|``: ``Exp(phi + e) = Exp(J_l(phi) e) Exp(phi)``
@@ -815,7 +803,8 @@ class _Run:
             # v <- R(psi_hat) (v_hat - dv'_hat), dv'_hat = dv_hat - v_hat x psi_hat
             # (pyins' InsErrorModel.correct_pva); then hold P in (dv', psi) across the change
             v = np.array(mech.v)
-            new = _rotvec_dcm(dx[6:9]) @ (v - dx[3:6] + np.cross(v, dx[6:9]))
+            rot = frames.quat_to_dcm(frames.rotvec_to_quat(dx[6:9]))
+            new = rot @ (v - dx[3:6] + np.cross(v, dx[6:9]))
             mech.v = (float(new[0]), float(new[1]), float(new[2]))
             self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
                                                              _skew(new - v)]))

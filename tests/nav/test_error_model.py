@@ -135,7 +135,7 @@ def _nominal(run: nf._Run, e: np.ndarray, modified: bool) -> None:
     m.lat = lat + e[0] / (rn + h)
     m.lon = np.radians(_TRUTH["lon"]) + e[1] / ((re + h) * np.cos(lat))
     m.h = h - e[2]
-    R = nf._rotvec_dcm(e[6:9])
+    R = frames.quat_to_dcm(frames.rotvec_to_quat(e[6:9]))
     v = e[3:6] + (R.T @ _TRUTH["vel"] if modified else _TRUTH["vel"])
     m.v = tuple(float(x) for x in v)
     m.q = tuple(frames.dcm_to_quat(R.T @ frames.rph_to_dcm(_TRUTH["rph"])))
