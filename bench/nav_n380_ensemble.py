@@ -17,9 +17,10 @@ pyins' state and 1-sigma just before each outage (``nav_pyins_n380.states_at_out
 Run ``python bench/nav_n380_ensemble.py --pyins --seeds 10`` (the missing pyins runs, serially,
 one at a time) and then ``python bench/nav_n380_ensemble.py`` (stochmod on the cached seeds and
 the table: per-outage mean, sd and standard error of both, and of the paired difference
-stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset (the
-covariance held in ``(dv - v_hat x psi, psi)`` across each feedback; docs/navigation_real_drive.md,
-"The cause").
+stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
+(the covariance held in ``(dv - v_hat x psi, psi)`` across each feedback;
+docs/navigation_real_drive.md, "The cause"), ``--error-model psi-exact`` with the exact reset of
+the psi model ("An exact reset").
 """
 
 from __future__ import annotations

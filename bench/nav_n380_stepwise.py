@@ -4,7 +4,8 @@
 pyins runs once with its Kalman correction and its error-propagation function wrapped, so that
 every propagation (``Phi, Q``, the step, its linearisation point: mid-step PVA and mean body
 specific force) and every update (``P`` before, ``z, H, R``) is logged in order; stochmod runs
-from the same start with both resets (``error_model="psi"`` and ``"modified-phi"``). Printed:
+from the same start with each error model (``error_model="psi"``, ``"psi-exact"`` and
+``"modified-phi"``). Printed:
 
 1. at times through the standstill (the first 120 s), the drive and the 60 s before outage 3:
    the heading and gyro-z bias 1-sigma of the three filters, and the difference of each
