@@ -8,7 +8,7 @@ from the same start with each error model (``error_model="psi"``, ``"psi-exact"`
 ``"modified-phi"``). Printed:
 
 1. at times through the standstill (the first 120 s), the drive and the 60 s before outage 3:
-   the heading and gyro-z bias 1-sigma of the three filters, and the difference of each
+   the heading and gyro-z bias 1-sigma of the filters, and the difference of each
    stochmod filter's accelerometer biases from pyins' in units of pyins' 1-sigma;
 2. a replay of the covariance recursion along pyins' own linearisation points and updates:
    with pyins' matrices (which reproduces pyins) and with stochmod's psi-angle propagation
