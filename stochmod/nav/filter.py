@@ -28,8 +28,17 @@ continuous form. For discrete-only blocks (AR) the sensor block is composed exac
 one-sample transition, the navigation block is exact (Van Loan), and the coupling uses the
 trapezoid ``dt/2 (Phi_nn F_ns + F_ns Phi_ss)``.
 
+The covariance step is linearised at its middle (``linearisation="midpoint"``): F varies along
+the trajectory (attitude in turns, velocity, specific force), and the exact transition over a
+step is the time-ordered exponential of F; ``expm(F(t_mid) dt)`` is its first Magnus term, with
+a local error O(dt^3) (the midpoint rule; Iserles & Norsett 1999, "On the solution of linear
+differential equations in Lie groups", and Hairer, Lubich & Wanner, "Geometric Numerical
+Integration", IV.7), against O(dt^2) at the end point; the state at the middle is the mean of
+the two ends (:func:`midpoint_pva`), second-order accurate. pyins linearises there too.
+
 Measurements are applied at their own time stamps (the estimate is interpolated between the two
-IMU epochs around the stamp), gated by a chi-square test on the normalised innovation, and fed
+IMU epochs around the stamp; with ``timing="fix"`` the measurement matrix refers the error to
+the stamp, ``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``), gated by a chi-square test on the normalised innovation, and fed
 back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
 is zero again.
 
@@ -95,14 +104,20 @@ from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
-__all__ = ["ERROR_MODELS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
-           "RandomWalkEquivalent"]
+__all__ = ["ERROR_MODELS", "LINEARISATIONS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
+           "RandomWalkEquivalent", "TIMINGS", "error_dynamics", "midpoint_pva"]
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
 
 #: The error models of :class:`LooselyCoupledFilter` (module notes): how the estimate is fed back
 #: and where the covariance is held across the feedback.
 ERROR_MODELS = ("psi", "psi-exact", "modified-phi")
+
+#: Where :class:`LooselyCoupledFilter` evaluates F over a covariance step (``linearisation``).
+LINEARISATIONS = ("midpoint", "end")
+
+#: Which time a fix's error model refers to (``timing``): its own, or the filter epoch's.
+TIMINGS = ("fix", "epoch")
 
 
 @attrs.frozen
@@ -396,6 +411,83 @@ def _sub_sample_states(F: np.ndarray, GQG: np.ndarray, dt: float) -> np.ndarray:
     return np.flatnonzero(alone & (-d * dt >= SUB_SAMPLE_POLE))
 
 
+def _fill_error_dynamics(F: np.ndarray, lat: float, hgt: float, v: Sequence[float],
+                         f_n: Sequence[float]) -> None:
+    """Write the navigation block of the psi-angle model's F (module notes) into ``F[:9, :9]``
+    at latitude `lat` (rad), height `hgt` (m), NED velocity `v` (m/s) and specific force `f_n`
+    (NED, m/s^2); ``F[0:3, 3:6]`` (the identity) is left as it is."""
+    vn, ve, vd = v
+    sl, cl = math.sin(lat), math.cos(lat)
+    w = 1.0 - earth.E2 * sl * sl
+    re = earth.A / math.sqrt(w)
+    rn = re * (1.0 - earth.E2) / w
+    g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
+                            * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
+    r0 = math.sqrt(rn * re) + hgt
+    om = earth.OMEGA_IE
+    wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
+    win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
+    cor = (win[0] + om * cl, win[1], win[2] - om * sl)
+    F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
+    F[3:6, 3:6] = -_skew(cor)
+    F[3:6, 6:9] = _skew(f_n)
+    F[6:9, 6:9] = -_skew(win)
+
+
+def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLike,
+                   f_n: ArrayLike) -> np.ndarray:
+    """The filter's continuous error dynamics ``F`` (15 x 15) at one navigation state: the 9
+    navigation error states (``dr, dv, psi``; module notes, Gonzalez 2015 eq. 20) followed by
+    constant gyro and accelerometer errors along the body axes (rad/s, m/s^2), which enter as
+    ``d(psi)/dt += C_nb b_g`` and ``d(dv)/dt -= C_nb b_a``.
+
+    Parameters
+    ----------
+    lat : float
+        Latitude, rad.
+    height : float
+        Ellipsoidal height, m.
+    vel_ned : array_like (3,)
+        NED velocity, m/s.
+    C_nb : array_like (3, 3)
+        Body-to-NED rotation.
+    f_n : array_like (3,)
+        Specific force in NED, m/s^2.
+
+    Returns
+    -------
+    ndarray (15, 15)
+        ``F`` such that ``de/dt = F e`` (the white-noise inputs aside).
+    """
+    F = np.zeros((15, 15))
+    F[0:3, 3:6] = np.eye(3)
+    _fill_error_dynamics(F, float(lat), float(height), np.asarray(vel_ned, float).tolist(),
+                         np.asarray(f_n, float).tolist())
+    C = np.asarray(C_nb, dtype=float)
+    F[3:6, 12:15] = -C
+    F[6:9, 9:12] = C
+    return F
+
+
+def midpoint_pva(start: tuple, end: tuple) -> tuple:
+    """The navigation state in the middle of a covariance step, from the states at its ends.
+
+    `start` and `end` are ``(lat rad, height m, (vn, ve, vd) m/s, (q0, q1, q2, q3))``; the
+    result is their mean with the quaternion normalised (the mean of two unit quaternions of the
+    same hemisphere lies on the geodesic between them), second-order accurate for the state at
+    the middle time. The filter linearises the covariance step there (``linearisation=
+    "midpoint"``): the midpoint rule for a time-varying ``F`` over the step, whose local error
+    is third order in the step against the end point's second order (module notes).
+    """
+    lat0, h0, v0, q0 = start
+    lat1, h1, v1, q1 = end
+    sign = 1.0 if sum(a * b for a, b in zip(q0, q1)) >= 0.0 else -1.0
+    q = [a + sign * b for a, b in zip(q0, q1)]
+    nrm = 1.0 / math.sqrt(sum(a * a for a in q))
+    return (0.5 * (lat0 + lat1), 0.5 * (h0 + h1),
+            tuple(0.5 * (a + b) for a, b in zip(v0, v1)), tuple(a * nrm for a in q))
+
+
 def _skew(v: Sequence[float]) -> np.ndarray:
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
@@ -525,6 +617,17 @@ class LooselyCoupledFilter:
         SO(3) at the attitude correction). ``"modified-phi"``: Scherzinger & Reid's modified
         phi-angle model as pyins uses it, the covariance of ``(dr, dv - v_hat x psi, psi)`` is
         held instead (module notes).
+    linearisation : {"midpoint", "end"}
+        Where F is evaluated over a covariance step: ``"midpoint"`` (default) at the mean of the
+        navigation states at the step's two ends (:func:`midpoint_pva`; the midpoint rule, local
+        error O(dt^3) in ``Phi``), ``"end"`` at the state at its end (O(dt^2)). The specific
+        force is the step's mean either way.
+    timing : {"fix", "epoch"}
+        ``"fix"`` (default): a fix at ``t_m`` inside the IMU interval ending at the filter epoch
+        ``t_k`` measures the error at ``t_m``, ``H (I - (t_k - t_m) F)``; ``"epoch"``: it is
+        taken as the error at ``t_k`` (an error of ``(t_k - t_m) dv`` in the predicted position
+        error, below one IMU step times the velocity error). The predicted measurement is the
+        state interpolated to ``t_m`` either way.
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
@@ -532,11 +635,16 @@ class LooselyCoupledFilter:
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
                  gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
                  lever_arm_sd: object = 0.0, record: float | None = None,
-                 error_model: str = "psi") -> None:
+                 error_model: str = "psi", linearisation: str = "midpoint",
+                 timing: str = "fix") -> None:
         self.models = _axis_models(gyro_models, accel_models)
-        if error_model not in ERROR_MODELS:
-            raise InputError(f"error_model must be one of {ERROR_MODELS}, got {error_model!r}")
+        for name, value, allowed in (("error_model", error_model, ERROR_MODELS),
+                                     ("linearisation", linearisation, LINEARISATIONS),
+                                     ("timing", timing, TIMINGS)):
+            if value not in allowed:
+                raise InputError(f"{name} must be one of {allowed}, got {value!r}")
         self.error_model = error_model
+        self.linearisation, self.timing = linearisation, timing
         if record is not None and not (record > 0 and math.isfinite(record)):
             raise InputError(f"record must be a positive number of seconds, got {record!r}")
         self.record = None if record is None else float(record)
@@ -687,25 +795,12 @@ class _Run:
     # -------------------------------------------------------------- covariance propagation
     def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
         mech, sens = self.mech, self.sens
-        C = _dcm(mech.q)
-        lat, hgt = mech.lat, mech.h
-        vn, ve, vd = mech.v
-        sl, cl = math.sin(lat), math.cos(lat)
-        w = 1.0 - earth.E2 * sl * sl
-        re = earth.A / math.sqrt(w)
-        rn = re * (1.0 - earth.E2) / w
-        g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
-                                * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
-        r0 = math.sqrt(rn * re) + hgt
-        om = earth.OMEGA_IE
-        wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
-        win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
-        cor = (win[0] + om * cl, win[1], win[2] - om * sl)
+        lat, hgt, v, q = mech.lat, mech.h, mech.v, mech.q
+        if self.flt.linearisation == "midpoint":
+            lat, hgt, v, q = midpoint_pva(self._start, (lat, hgt, v, q))
+        C = _dcm(q)
         F = self._F
-        F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
-        F[3:6, 3:6] = -_skew(cor)
-        F[3:6, 6:9] = _skew(f_n)
-        F[6:9, 6:9] = -_skew(win)
+        _fill_error_dynamics(F, lat, hgt, v, f_n)
         W = self._W
         W[3:6, 3:6] = (C * sens.psd[3:6]) @ C.T
         W[6:9, 6:9] = (C * sens.psd[0:3]) @ C.T
@@ -751,12 +846,19 @@ class _Run:
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
         Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
+        lag = self.t_now - self.t_meas
+        if Hl is not None:
+            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
+            H[:, lever] = Hl
+        if self.flt.timing == "fix" and lag > 0.0:
+            # the fix measures the error at its own time t_m, e(t_m) = (I - lag F) e(t_k) to
+            # first order in lag = t_k - t_m < one IMU step (F of the step just propagated)
+            H -= lag * (H @ self._F)
+            Hl = H
         if Hl is None:
             PHt = self.P[:, :9] @ Hn.T
             S = Hn @ PHt[:9] + R
         else:
-            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
-            H[:, lever] = Hl
             PHt = self.P @ H.T
             S = H @ PHt + R
         try:
@@ -895,6 +997,8 @@ class _Run:
         return self._result(rows, epochs, epoch_rows, nav_P)
 
     def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
+        mech = self.mech
+        self._start = (mech.lat, mech.h, mech.v, mech.q)  # the next covariance step's start
         epochs.append((self.t_now, np.sqrt(np.clip(np.diag(self.P), 0, None)), self.s.copy(),
                        self.corr.copy()))
         epoch_rows.append(row)
