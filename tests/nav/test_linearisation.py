@@ -93,3 +93,40 @@ def test_linearisation_and_timing_options_are_checked():
     for kw in ({"linearisation": "start"}, {"timing": "late"}):
         with pytest.raises(InputError, match=next(iter(kw))):
             LooselyCoupledFilter(GYRO, ACCEL, **kw)
+
+
+@pytest.mark.parametrize("timing", ["fix", "epoch"])
+def test_a_fix_between_imu_epochs_measures_the_error_at_its_own_time(timing):
+    """A vehicle at rest, estimated moving at DV (m/s) with its position right at the filter
+    epoch t_k: its interpolated position at a fix LAG before t_k is off by -LAG DV. With
+    timing="fix" (H (I - lag F)) an exact fix there reveals the velocity error, and the
+    feedback removes it; "epoch" reads the same innovation as a position error at t_k, which
+    the covariance says is known, and leaves the velocity wrong."""
+    import stochmod.nav.filter as nf
+    from stochmod.nav import earth
+    from stochmod.nav.measurements import GnssPosition
+
+    lat, lon, hgt = 37.3, -122.1, 40.0
+    dv, h, lag = np.array([1.0, -0.5, 0.2]), 0.01, 0.009  # m/s, s, s
+    flt = LooselyCoupledFilter(GYRO, ACCEL, timing=timing)
+    init = nf.InitialState(lat, lon, hgt, dv, (0.0, 0.0, 30.0))
+    z = np.zeros((1, 3))
+    run = nf._Run(flt, nf._Sensors(flt.models, h, 0.0, 0.0), init, np.array([0.0, h]),
+                  np.array([h]), z, z, z, z, [], None)
+    rn, re = (float(r) for r in earth.principal_radii(np.radians(lat)))
+    # the state one IMU step earlier, moving at the estimated velocity
+    prev = (np.radians(lat) - dv[0] * h / (rn + hgt),
+            np.radians(lon) - dv[1] * h / ((re + hgt) * np.cos(np.radians(lat))),
+            hgt + dv[2] * h, tuple(dv))
+    nf._fill_error_dynamics(run._F, np.radians(lat), hgt, tuple(dv), (0.0, 0.0, -9.8))
+    run.P = np.diag(np.r_[[1e-12] * 3, [1.0] * 3, [1e-12] * 3, [1e-12] * (run.n - 9)])
+    run.t_prev, run.t_now = 0.0, h
+    run.t_meas = h - lag
+    run._update(GnssPosition(lat, lon, hgt, 1e-5), run._snapshot(h - lag, prev, np.zeros(3)))
+    left = np.array(run.mech.v)
+    if timing == "fix":
+        # the residual (measured 1.2e-6 m/s): R / (lag^2 sigma_v^2) of it and the O(lag^2)
+        # terms of the transition over the lag
+        np.testing.assert_allclose(left, 0.0, atol=1e-5)
+    else:
+        np.testing.assert_allclose(left, dv, atol=1e-6)
