@@ -34,7 +34,9 @@ step is the time-ordered exponential of F; ``expm(F(t_mid) dt)`` is its first Ma
 a local error O(dt^3) (the midpoint rule; Iserles & Norsett 1999, "On the solution of linear
 differential equations in Lie groups", and Hairer, Lubich & Wanner, "Geometric Numerical
 Integration", IV.7), against O(dt^2) at the end point; the state at the middle is the mean of
-the two ends (:func:`midpoint_pva`), second-order accurate. pyins linearises there too.
+the two ends (:func:`midpoint_pva`), second-order accurate. pyins linearises there too;
+Gonzalez's Alg. 1 (lines 1-2) takes F (eq. 20k) at the update epoch and ``Phi = I + F dt``,
+first order in both.
 
 Measurements are applied at their own time stamps (the estimate is interpolated between the two
 IMU epochs around the stamp; with ``timing="fix"`` the measurement matrix refers the error to
