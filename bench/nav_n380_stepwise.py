@@ -75,8 +75,10 @@ def replay(drive, events, seed: int, error_model: str) -> np.ndarray:
     from stochmod.nav import LooselyCoupledFilter
 
     gyro, accel, gb, ab = pyins_example_models()
+    # linearisation="end": F is evaluated at the state set below, pyins' own mid-step PVA
     flt = LooselyCoupledFilter(gyro, accel, gyro_bias_sd=gb, accel_bias_sd=ab,
-                               lever_arm=LEVER_ARM, error_model=error_model)
+                               lever_arm=LEVER_ARM, error_model=error_model,
+                               linearisation="end")
     ref, err = drive.reference, initial_error(seed)
     init = InitialState(ref.lat[0], ref.lon[0], ref.height[0], ref.vel_ned[0] + err["vel"],
                         ref.rph[0] + np.asarray(err["rph"]), sd_position=5.0, sd_velocity=0.5,
