@@ -54,7 +54,8 @@ def drive(still: float):
 
 
 def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
-             configs=(("midpoint", "fix"),), fix_offset: float = 0.0) -> dict[str, tuple[np.ndarray, float]]:
+             configs=(("midpoint", "fix"),), fix_offset: float = 0.0
+             ) -> dict[str, tuple[np.ndarray, float]]:
     """Per error model and configuration ``(linearisation, timing)``: maximum horizontal error
     per outage (m) and mean NEES of one seed (keys ``model`` for one configuration, else
     ``model linearisation/timing``)."""

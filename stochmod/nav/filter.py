@@ -40,9 +40,9 @@ first order in both.
 
 Measurements are applied at their own time stamps (the estimate is interpolated between the two
 IMU epochs around the stamp; with ``timing="fix"`` the measurement matrix refers the error to
-the stamp, ``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``), gated by a chi-square test on the normalised innovation, and fed
-back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
-is zero again.
+the stamp, ``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``), gated by a chi-square
+test on the normalised innovation, and fed back into the mechanisation (Gonzalez Alg. 2 lines
+27-30, eq. 26), after which the error state is zero again.
 
 Error model (``error_model``): how the estimate is fed back and where the covariance is held
 across the feedback (the reset). Write ``e`` for the error before a feedback, ``e_hat`` for the
@@ -474,12 +474,22 @@ def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLik
 def midpoint_pva(start: tuple, end: tuple) -> tuple:
     """The navigation state in the middle of a covariance step, from the states at its ends.
 
-    `start` and `end` are ``(lat rad, height m, (vn, ve, vd) m/s, (q0, q1, q2, q3))``; the
-    result is their mean with the quaternion normalised (the mean of two unit quaternions of the
-    same hemisphere lies on the geodesic between them), second-order accurate for the state at
-    the middle time. The filter linearises the covariance step there (``linearisation=
-    "midpoint"``): the midpoint rule for a time-varying ``F`` over the step, whose local error
-    is third order in the step against the end point's second order (module notes).
+    The filter linearises the covariance step there (``linearisation="midpoint"``): the
+    midpoint rule for a time-varying ``F`` over the step, whose local error is third order in
+    the step against the end point's second order (module notes).
+
+    Parameters
+    ----------
+    start, end : tuple
+        ``(lat rad, height m, (vn, ve, vd) m/s, (q0, q1, q2, q3))`` at the step's two ends
+        (scalar-first unit quaternion of ``C_nb``).
+
+    Returns
+    -------
+    tuple
+        The same fields: their mean, with the quaternion normalised (the mean of two unit
+        quaternions of the same hemisphere lies on the geodesic between them); second-order
+        accurate for the state at the middle time.
     """
     lat0, h0, v0, q0 = start
     lat1, h1, v1, q1 = end
