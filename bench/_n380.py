@@ -212,7 +212,8 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                  gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
                  initial_error: dict | None = None, gate: float | None = None,
                  receiver_sd: bool = False, lever_arm=(0.0, 0.0, 0.0), lever_arm_sd=0.0,
-                 dt_filter: float = 0.1, error_model: str = "psi"):
+                 dt_filter: float = 0.1, error_model: str = "psi",
+                 linearisation: str = "midpoint", timing: str = "fix"):
     """stochmod's loosely-coupled filter on the drive with the issue's three outages.
 
     Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
@@ -222,7 +223,8 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     (``{"ned": m, "vel": m/s, "rph": deg}``) perturbs the reference start as pyins' run does.
     `lever_arm` (body x/y/z, m) is the IMU-to-antenna lever arm; ``lever_arm_sd`` > 0 (m, one or
     three values) makes it three constant states started there (``stochmod navigate
-    --lever-arm-sd``); `error_model` is the filter's (``"psi"`` or pyins' ``"modified-phi"``).
+    --lever-arm-sd``); `error_model`, `linearisation` and `timing` are the filter's
+    (:class:`stochmod.nav.LooselyCoupledFilter`).
     Returns the NavResult.
     """
     from stochmod.nav import InitialState, LooselyCoupledFilter
@@ -250,7 +252,8 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=dt_filter, gyro_bias_sd=gyro_bias_sd,
                                accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
                                gnss_vel_sd=0.3, lever_arm=lever_arm, lever_arm_sd=lever_arm_sd,
-                               error_model=error_model)
+                               error_model=error_model, linearisation=linearisation,
+                               timing=timing)
     outages = [(s, OUTAGE_DURATION) for s in OUTAGE_STARTS]
     return flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss, init=init,
                    outages=outages)

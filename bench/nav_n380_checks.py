@@ -54,6 +54,11 @@ def horizontal_error(ref: Trajectory, t, lat, lon) -> np.ndarray:
                     np.radians(lon - tr.lon) * (re + tr.height) * np.cos(la))
 
 
+# the filter settings the checks' stand-in loops read: the defaults (psi feedback, F at the
+# middle of each covariance step)
+FILTER = types.SimpleNamespace(error_model="psi", linearisation="midpoint")
+
+
 def check_transition(drive, steps: int) -> None:
     ref, imu, t0 = drive.reference, drive.imu, drive.t0
     gyro, accel, gb, ab = pyins_models()
@@ -69,8 +74,9 @@ def check_transition(drive, steps: int) -> None:
         m = Mechanisation(NavState.from_degrees(lat=ref.lat[i], lon=ref.lon[i],
                                                 height=ref.height[i], vel_ned=ref.vel_ned[i],
                                                 rph=ref.rph[i]))
-        nav_filter._Run._feedback(types.SimpleNamespace(mech=m, sens=types.SimpleNamespace(n=0)),
-                                  -dx[:9])  # an "estimate minus truth" error of dx
+        nav_filter._Run._feedback(types.SimpleNamespace(mech=m, sens=types.SimpleNamespace(n=0),
+                                                        flt=FILTER), -dx[:9])
+        # (an "estimate minus truth" error of dx)
         m.dv_n = [0.0, 0.0, 0.0]
         return m
 
@@ -92,10 +98,12 @@ def check_transition(drive, steps: int) -> None:
     for s in (100.0, 160.0, 175.0, 250.0, 300.0, 435.0):
         i = int(np.searchsorted(t, t0 + s))
         nom = propagate(i, np.zeros(n))
+        m0 = start(i, np.zeros(n))
         dt = float(np.sum(h[i:i + steps]))
         ns = types.SimpleNamespace(mech=nom, sens=sens, _F=np.zeros((n, n)), _W=np.zeros((n, n)),
                                    P=np.zeros((n, n)), s=np.zeros(sens.n), t_now=0.0,
-                                   corr=np.zeros(6))
+                                   corr=np.zeros(6), flt=FILTER,
+                                   _start=(m0.lat, m0.h, m0.v, m0.q))
         ns._F[0:3, 3:6] = np.eye(3)
         ns._F[9:, 9:], ns._W[9:, 9:] = sens.F, sens.GQG
         ns.P = np.eye(n)  # P = I: after the step P = Phi Phi' + Q; Phi read back below

@@ -17,9 +17,11 @@ pyins' state and 1-sigma just before each outage (``nav_pyins_n380.states_at_out
 Run ``python bench/nav_n380_ensemble.py --pyins --seeds 10`` (the missing pyins runs, serially,
 one at a time) and then ``python bench/nav_n380_ensemble.py`` (stochmod on the cached seeds and
 the table: per-outage mean, sd and standard error of both, and of the paired difference
-stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset (the
-covariance held in ``(dv - v_hat x psi, psi)`` across each feedback; docs/navigation_real_drive.md,
-"The cause").
+stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
+(the covariance held in ``(dv - v_hat x psi, psi)`` across each feedback;
+docs/navigation_real_drive.md, "The cause"), ``--error-model psi-exact`` with the exact reset of
+the psi model ("An exact reset"); ``--linearisation end --timing epoch`` runs the filter as it
+was before the midpoint linearisation and the fix-time measurement matrix became the defaults.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stochmod.nav.filter import ERROR_MODELS
+from stochmod.nav.filter import ERROR_MODELS, LINEARISATIONS, TIMINGS
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -210,12 +212,18 @@ def main(argv: list[str] | None = None) -> int:
                         help="also compare the two filters' states before each outage")
     parser.add_argument("--error-model", default="psi", choices=ERROR_MODELS,
                         help="stochmod's error model (default psi; modified-phi: pyins' reset)")
+    parser.add_argument("--linearisation", default="midpoint", choices=LINEARISATIONS,
+                        help="where F is evaluated over a covariance step (default midpoint)")
+    parser.add_argument("--timing", default="fix", choices=TIMINGS,
+                        help="a fix's error at its own time (fix, default) or the IMU epoch's")
     args = parser.parse_args(argv)
     drive = load_n380()
     cache = run_pyins_seeds(drive, list(range(args.seeds))) if args.pyins else load_cache()
     if not args.no_stochmod and cache["runs"]:
-        ours = stochmod_runs(drive, cache, error_model=args.error_model)
-        print(f"stochmod error model: {args.error_model}")
+        ours = stochmod_runs(drive, cache, error_model=args.error_model,
+                             linearisation=args.linearisation, timing=args.timing)
+        print(f"stochmod error model: {args.error_model}, linearisation {args.linearisation}, "
+              f"timing {args.timing}")
         for seed in sorted(ours, key=int):
             print(f"seed {seed}: stochmod {np.round(ours[seed][0], 1)} m, pyins "
                   f"{np.round(cache['runs'][seed]['max_horizontal_error_m'], 1)} m")

@@ -1,6 +1,6 @@
-"""Which reset is better when the truth is known: stochmod's filter with ``error_model="psi"``
-and with pyins' ``"modified-phi"`` on emulated drives built like the n380 drive
-(docs/navigation_real_drive.md, "Which reset is better?").
+"""Which reset is better when the truth is known: stochmod's filter with each of its error
+models (``error_model="psi"``, ``"psi-exact"`` and pyins' ``"modified-phi"``) on emulated drives
+built like the n380 drive (docs/navigation_real_drive.md, "Which reset is better?").
 
 Each run: a standstill (``--still`` s, default 120), then about 5 minutes of driving with turns;
 the IMU is the exact one of the trajectory plus errors drawn from pyins' example MEMS model
@@ -10,9 +10,14 @@ deg/h, 0.05 m/s^2); GNSS position fixes at 1 Hz with sd 1 m at an antenna 1.3 m 
 initial sd (5 m, 0.5 m/s, 0.2/0.2/1 deg); two 60 s outages while driving. Both filters see the
 same data; printed per seed and on average: the maximum horizontal error in each outage and
 the mean NEES of the 9 navigation states (9 for an honest filter), and the paired difference
-psi - modified-phi with its standard error.
+of each other model minus psi with its standard error.
 
-Run ``python bench/nav_reset_emulation.py [--seeds 12] [--still 120]`` (~6 s a seed here).
+Run ``python bench/nav_reset_emulation.py [--seeds 12] [--first-seed 0] [--still 120]``
+(~9 s a seed here). ``--configs end/epoch midpoint/fix [...]`` runs each error model (``--models``)
+with each ``linearisation/timing`` pair of the filter and pairs each against the first (the
+library's default is ``midpoint/fix``; ``end/epoch`` is the filter before that change);
+``--fix-offset 0.005`` stamps the fixes 5 ms after the IMU epochs (otherwise on them, where the
+timing choice makes no difference).
 """
 
 from __future__ import annotations
@@ -48,8 +53,12 @@ def drive(still: float):
     return truth, [(still + 113.0, 60.0), (truth.time[-1] - truth.time[0] - 60.0, 59.0)]
 
 
-def one_seed(truth, clean: ImuData, outages, seed: int) -> dict[str, tuple[np.ndarray, float]]:
-    """Per error model: maximum horizontal error per outage (m) and mean NEES of one seed."""
+def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
+             configs=(("midpoint", "fix"),), fix_offset: float = 0.0
+             ) -> dict[str, tuple[np.ndarray, float]]:
+    """Per error model and configuration ``(linearisation, timing)``: maximum horizontal error
+    per outage (m) and mean NEES of one seed (keys ``model`` for one configuration, else
+    ``model linearisation/timing``)."""
     gyro, accel, gyro_bias_sd, accel_bias_sd = pyins_example_models()
     rng = np.random.default_rng(100 + seed)
     bias = np.r_[rng.normal(0, gyro_bias_sd, 3), rng.normal(0, accel_bias_sd, 3)]
@@ -58,7 +67,9 @@ def one_seed(truth, clean: ImuData, outages, seed: int) -> dict[str, tuple[np.nd
     h = np.diff(clean.time)
     h = np.r_[h[:1], h][:, None]
     imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h, "increment")
-    gnss = gnss_measurements(truth, 1.0, sigma_h=1.0, sigma_v=1.0, sigma_vel=None,
+    # fixes `fix_offset` s after the IMU epochs (the n380's fall 0 to 10 ms after them)
+    stamped = truth if not fix_offset else truth.at(truth.time[:-1] + fix_offset)
+    gnss = gnss_measurements(stamped, 1.0, sigma_h=1.0, sigma_v=1.0, sigma_vel=None,
                              lever_arm=LEVER_ARM, rng=rng)
     s0 = truth.at(truth.time[:1])
     e = rng.standard_normal(9) * INITIAL_SD
@@ -69,37 +80,56 @@ def one_seed(truth, clean: ImuData, outages, seed: int) -> dict[str, tuple[np.nd
                         sd_position=5.0, sd_velocity=0.5, sd_attitude=(0.2, 0.2, 1.0))
     t0 = truth.time[0]
     out = {}
-    for model in ERROR_MODELS:
-        flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
-                                   accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
-                                   lever_arm=LEVER_ARM, error_model=model)
-        res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss, init=init,
-                      outages=outages, truth=truth)
-        windows = [(t0 + s, t0 + s + d) for s, d in outages]
-        out[model] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
-                      res.mean_nees)
+    for model in models:
+        for lin, timing in configs:
+            flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+                                       accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
+                                       lever_arm=LEVER_ARM, error_model=model,
+                                       linearisation=lin, timing=timing)
+            res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss,
+                          init=init, outages=outages, truth=truth)
+            windows = [(t0 + s, t0 + s + d) for s, d in outages]
+            key = model if len(configs) == 1 else f"{model} {lin}/{timing}"
+            out[key] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
+                        res.mean_nees)
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--first-seed", type=int, default=0, help="seeds FIRST .. FIRST+N-1")
     parser.add_argument("--still", type=float, default=120.0, help="standstill at the start, s")
+    parser.add_argument("--models", nargs="+", default=list(ERROR_MODELS),
+                        choices=ERROR_MODELS)
+    parser.add_argument("--configs", nargs="+", default=["midpoint/fix"],
+                        help="LINEARISATION/TIMING pairs (midpoint|end / fix|epoch); with more "
+                             "than one, each is paired against the first within each model")
+    parser.add_argument("--fix-offset", type=float, default=0.0,
+                        help="GNSS fixes this many seconds after the IMU epochs (< one step)")
     args = parser.parse_args(argv)
+    configs = [tuple(c.split("/")) for c in args.configs]
     truth, outages = drive(args.still)
     clean = ideal_imu(truth, "increment")
     runs = []
-    for seed in range(args.seeds):
-        runs.append(one_seed(truth, clean, outages, seed))
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
+        runs.append(one_seed(truth, clean, outages, seed, args.models, configs,
+                             args.fix_offset))
         print(f"seed {seed}: " + "; ".join(f"{m} {np.round(e, 1)} m" for m, (e, _) in
                                              runs[-1].items()), flush=True)
-    err = {m: np.array([r[m][0] for r in runs]) for m in ERROR_MODELS}
-    for m in ERROR_MODELS:
-        print(f"{m:13s} mean max horizontal error per outage {np.round(err[m].mean(0), 2)} m, "
+    keys = list(runs[0])
+    err = {m: np.array([r[m][0] for r in runs]) for m in keys}
+    for m in keys:
+        print(f"{m:28s} mean max horizontal error per outage {np.round(err[m].mean(0), 2)} m, "
               f"mean NEES {np.mean([r[m][1] for r in runs]):.2f}")
-    d = err["psi"] - err["modified-phi"]
-    se = d.std(0, ddof=1) / math.sqrt(len(d)) if len(d) > 1 else np.full(d.shape[1], np.nan)
-    print(f"psi - modified-phi: {np.round(d.mean(0), 2)} +- {np.round(se, 2)} m")
+    if len(configs) == 1:
+        pairs = [(m, "psi") for m in keys if m != "psi" and "psi" in keys]
+    else:
+        pairs = [(k, keys[i - i % len(configs)]) for i, k in enumerate(keys) if i % len(configs)]
+    for m, base in pairs:
+        d = err[m] - err[base]
+        se = d.std(0, ddof=1) / math.sqrt(len(d)) if len(d) > 1 else np.full(d.shape[1], np.nan)
+        print(f"{m} - {base}: {np.round(d.mean(0), 2)} +- {np.round(se, 2)} m")
     return 0
 
 

@@ -73,8 +73,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dt-filter", type=float, default=0.1, metavar="S",
                    help="covariance step of the filter, s (default 0.1)")
     p.add_argument("--error-model", choices=ERROR_MODELS, default="psi",
-                   help="where the filter holds its covariance across a feedback: psi (default) "
-                        "or pyins' modified-phi (docs/navigation.md, 'Reset')")
+                   help="how the filter feeds back and resets its covariance: psi (default, "
+                        "first-order reset), psi-exact (its exact reset Jacobian) or pyins' "
+                        "modified-phi (docs/navigation.md, 'Reset')")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 

@@ -28,23 +28,50 @@ continuous form. For discrete-only blocks (AR) the sensor block is composed exac
 one-sample transition, the navigation block is exact (Van Loan), and the coupling uses the
 trapezoid ``dt/2 (Phi_nn F_ns + F_ns Phi_ss)``.
 
-Measurements are applied at their own time stamps (the estimate is interpolated between the two
-IMU epochs around the stamp), gated by a chi-square test on the normalised innovation, and fed
-back into the mechanisation (Gonzalez Alg. 2 lines 27-30, eq. 26), after which the error state
-is zero again.
+The covariance step is linearised at its middle (``linearisation="midpoint"``): F varies along
+the trajectory (attitude in turns, velocity, specific force), and the exact transition over a
+step is the time-ordered exponential of F; ``expm(F(t_mid) dt)`` is its first Magnus term, with
+a local error O(dt^3) (the midpoint rule; Iserles & Norsett 1999, "On the solution of linear
+differential equations in Lie groups", and Hairer, Lubich & Wanner, "Geometric Numerical
+Integration", IV.7), against O(dt^2) at the end point; the state at the middle is the mean of
+the two ends (:func:`midpoint_pva`), second-order accurate. pyins linearises there too;
+Gonzalez's Alg. 1 (lines 1-2) takes F (eq. 20k) at the update epoch and ``Phi = I + F dt``,
+first order in both.
 
-Error model (``error_model``). ``"psi"`` (default) holds the covariance of ``(dr, dv, psi)``
-across each feedback, the first-order reset of the model above. ``"modified-phi"`` is
-Scherzinger & Reid's modified phi-angle model, the one pyins uses: its velocity error is
-``dv' = dv - v_hat x psi`` (the specific force moves out of F into that definition). Its F is
-the psi model's carried into ``dv'`` (the two propagate the same covariance to 5e-6 of the
-correlation scale at the same linearisation point, docs/navigation_real_drive.md), so the
-propagation is done in the psi form; what differs is the feedback: ``v_hat`` changes by the
-velocity correction ``dv_hat`` while the covariance is held in ``(dv', psi)``, i.e. in stochmod's
-states ``P <- A P A'`` with ``A = I + [dv_hat x]`` in the velocity-attitude block. The two
-resets are each first order in their own states and differ at second order; on the n380 drive
-the choice decides how much heading information the filter takes at rest, and with it the
-tilt / accelerometer-bias split (docs/navigation_real_drive.md).
+Measurements are applied at their own time stamps (the estimate is interpolated between the two
+IMU epochs around the stamp; with ``timing="fix"`` the measurement matrix refers the error to
+the stamp, ``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``), gated by a chi-square
+test on the normalised innovation, and fed back into the mechanisation (Gonzalez Alg. 2 lines
+27-30, eq. 26), after which the error state is zero again.
+
+Error model (``error_model``): how the estimate is fed back and where the covariance is held
+across the feedback (the reset). Write ``e`` for the error before a feedback, ``e_hat`` for the
+applied estimate and ``e+ = g(e, e_hat)`` for the error after it; the reset is ``P <- G P G'``
+with ``G = dg/de`` at ``e = e_hat`` (Groves 2013, Chapter 14 on the closed-loop correction of
+the INS; Sola 2017, "Quaternion kinematics for the error-state Kalman filter", Section 7.2).
+
+- ``"psi"`` (default): ``v <- v_hat - dv_hat``, position and sensor states likewise, and
+  ``C_nb <- Exp(psi_hat) C_nb_hat``; ``G = I`` (the first-order reset).
+- ``"psi-exact"``: the same feedback with its exact Jacobian. Position, velocity and the
+  sensor states are corrected additively, so their rows of ``G`` are the identity (to
+  ``|dr_hat| / R ~ 1e-6``: the radii of curvature at the corrected latitude; the psi angle is
+  defined against the computed navigation frame, so moving the position does not move it).
+  The attitude error ``C_nb_hat = Exp(-psi) C_nb`` after the correction is ``Exp(-psi+) =
+  Exp(psi_hat) Exp(-psi)``, whose derivative at ``psi = psi_hat`` is the left Jacobian of SO(3):
+  ``G[psi, psi] = J_l(psi_hat) = I + [psi_hat x]/2 + O(psi_hat^2)``.
+- ``"modified-phi"``: Scherzinger & Reid's modified phi-angle model, the one pyins uses: the
+  velocity error ``dv' = v_hat - Exp(psi)' v`` (``dv - v_hat x psi`` to first order; the
+  specific force moves out of F into that definition). Its F is the psi model's carried into
+  ``dv'`` (the two propagate the same covariance to 5e-6 of the correlation scale at the same
+  linearisation point, docs/navigation_real_drive.md), so the propagation is done in the psi
+  form. Its feedback is the exact injection of its own error, ``v <- Exp(psi_hat) (v_hat -
+  dv'_hat)`` (pyins' ``correct_pva``), and its reset holds the covariance in ``(dv', psi)``
+  while ``v_hat`` moves by the applied change ``Delta v``: in stochmod's states ``G = I +
+  [Delta v x]`` in the velocity-attitude block. That is the first-order reset of this model, as
+  pyins has it (its exact Jacobian in ``(dv', psi)`` would be ``Exp(psi_hat)`` on ``dv'`` and
+  ``J_l(psi_hat)`` on ``psi``). On the n380 drive this decides how much
+  heading information the filter takes at rest, and with it the tilt / accelerometer-bias split
+  (docs/navigation_real_drive.md).
 """
 
 from __future__ import annotations
@@ -79,14 +106,20 @@ from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.reporting import format_table
 from stochmod.statespace import ContinuousBlock, compose_steps
 
-__all__ = ["ERROR_MODELS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
-           "RandomWalkEquivalent"]
+__all__ = ["ERROR_MODELS", "LINEARISATIONS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
+           "RandomWalkEquivalent", "TIMINGS", "error_dynamics", "midpoint_pva"]
 
 NAV_STATES = ("dr_n", "dr_e", "dr_d", "dv_n", "dv_e", "dv_d", "psi_x", "psi_y", "psi_z")
 
-#: The error models of :class:`LooselyCoupledFilter` (module notes): where the covariance is
-#: held across a feedback.
-ERROR_MODELS = ("psi", "modified-phi")
+#: The error models of :class:`LooselyCoupledFilter` (module notes): how the estimate is fed back
+#: and where the covariance is held across the feedback.
+ERROR_MODELS = ("psi", "psi-exact", "modified-phi")
+
+#: Where :class:`LooselyCoupledFilter` evaluates F over a covariance step (``linearisation``).
+LINEARISATIONS = ("midpoint", "end")
+
+#: Which time a fix's error model refers to (``timing``): its own, or the filter epoch's.
+TIMINGS = ("fix", "epoch")
 
 
 @attrs.frozen
@@ -380,9 +413,112 @@ def _sub_sample_states(F: np.ndarray, GQG: np.ndarray, dt: float) -> np.ndarray:
     return np.flatnonzero(alone & (-d * dt >= SUB_SAMPLE_POLE))
 
 
+def _fill_error_dynamics(F: np.ndarray, lat: float, hgt: float, v: Sequence[float],
+                         f_n: Sequence[float]) -> None:
+    """Write the navigation block of the psi-angle model's F (module notes) into ``F[:9, :9]``
+    at latitude `lat` (rad), height `hgt` (m), NED velocity `v` (m/s) and specific force `f_n`
+    (NED, m/s^2); ``F[0:3, 3:6]`` (the identity) is left as it is."""
+    vn, ve, vd = v
+    sl, cl = math.sin(lat), math.cos(lat)
+    w = 1.0 - earth.E2 * sl * sl
+    re = earth.A / math.sqrt(w)
+    rn = re * (1.0 - earth.E2) / w
+    g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
+                            * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
+    r0 = math.sqrt(rn * re) + hgt
+    om = earth.OMEGA_IE
+    wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
+    win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
+    cor = (win[0] + om * cl, win[1], win[2] - om * sl)
+    F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
+    F[3:6, 3:6] = -_skew(cor)
+    F[3:6, 6:9] = _skew(f_n)
+    F[6:9, 6:9] = -_skew(win)
+
+
+def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLike,
+                   f_n: ArrayLike) -> np.ndarray:
+    """The filter's continuous error dynamics ``F`` (15 x 15) at one navigation state: the 9
+    navigation error states (``dr, dv, psi``; module notes, Gonzalez 2015 eq. 20) followed by
+    constant gyro and accelerometer errors along the body axes (rad/s, m/s^2), which enter as
+    ``d(psi)/dt += C_nb b_g`` and ``d(dv)/dt -= C_nb b_a``.
+
+    Parameters
+    ----------
+    lat : float
+        Latitude, rad.
+    height : float
+        Ellipsoidal height, m.
+    vel_ned : array_like (3,)
+        NED velocity, m/s.
+    C_nb : array_like (3, 3)
+        Body-to-NED rotation.
+    f_n : array_like (3,)
+        Specific force in NED, m/s^2.
+
+    Returns
+    -------
+    ndarray (15, 15)
+        ``F`` such that ``de/dt = F e`` (the white-noise inputs aside).
+    """
+    F = np.zeros((15, 15))
+    F[0:3, 3:6] = np.eye(3)
+    _fill_error_dynamics(F, float(lat), float(height), np.asarray(vel_ned, float).tolist(),
+                         np.asarray(f_n, float).tolist())
+    C = np.asarray(C_nb, dtype=float)
+    F[3:6, 12:15] = -C
+    F[6:9, 9:12] = C
+    return F
+
+
+def midpoint_pva(start: tuple, end: tuple) -> tuple:
+    """The navigation state in the middle of a covariance step, from the states at its ends.
+
+    The filter linearises the covariance step there (``linearisation="midpoint"``): the
+    midpoint rule for a time-varying ``F`` over the step, whose local error is third order in
+    the step against the end point's second order (module notes).
+
+    Parameters
+    ----------
+    start, end : tuple
+        ``(lat rad, height m, (vn, ve, vd) m/s, (q0, q1, q2, q3))`` at the step's two ends
+        (scalar-first unit quaternion of ``C_nb``).
+
+    Returns
+    -------
+    tuple
+        The same fields: their mean, with the quaternion normalised (the mean of two unit
+        quaternions of the same hemisphere lies on the geodesic between them); second-order
+        accurate for the state at the middle time.
+    """
+    lat0, h0, v0, q0 = start
+    lat1, h1, v1, q1 = end
+    sign = 1.0 if sum(a * b for a, b in zip(q0, q1)) >= 0.0 else -1.0
+    q = [a + sign * b for a, b in zip(q0, q1)]
+    nrm = 1.0 / math.sqrt(sum(a * a for a in q))
+    return (0.5 * (lat0 + lat1), 0.5 * (h0 + h1),
+            tuple(0.5 * (a + b) for a, b in zip(v0, v1)), tuple(a * nrm for a in q))
+
+
 def _skew(v: Sequence[float]) -> np.ndarray:
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _left_jacobian(phi: np.ndarray) -> np.ndarray:
+    """Left Jacobian of SO(3) at the rotation vector `phi` (rad), ``I + (1 - cos a)/a^2 [phi x]
+    + (a - sin a)/a^3 [phi x]^2`` with ``a = |phi|``: ``Exp(phi + e) = Exp(J_l(phi) e) Exp(phi)``
+    to first order in ``e`` (Sola 2017, "Quaternion kinematics for the error-state Kalman
+    filter", the SO(3) Jacobians and the ESKF reset, Section 7.2; its first-order form there
+    is ``I + [phi/2 x]``)."""
+    a2 = float(phi @ phi)
+    S = _skew(phi)
+    if a2 < 1e-8:
+        b, c = 0.5 - a2 / 24.0, 1.0 / 6.0 - a2 / 120.0
+    else:
+        a = math.sqrt(a2)
+        b, c = (1.0 - math.cos(a)) / a2, (a - math.sin(a)) / (a2 * a)
+    return np.eye(3) + b * S + c * (S @ S)
 
 
 def _dcm(q: Sequence[float]) -> np.ndarray:
@@ -487,10 +623,23 @@ class LooselyCoupledFilter:
         Tc``, with initial variance ``q * record`` instead of its unidentified stationary
         ``sigma^2``; a warning and ``NavResult.random_walks`` report each one. None (default):
         the models are taken as they are.
-    error_model : {"psi", "modified-phi"}
+    error_model : {"psi", "psi-exact", "modified-phi"}
         ``"psi"`` (default): the covariance of ``(dr, dv, psi)`` is held across each feedback.
-        ``"modified-phi"``: Scherzinger & Reid's modified phi-angle model as pyins uses it, the
-        covariance of ``(dr, dv - v_hat x psi, psi)`` is held instead (module notes).
+        ``"psi-exact"``: the same feedback with its exact reset Jacobian (the left Jacobian of
+        SO(3) at the attitude correction). ``"modified-phi"``: Scherzinger & Reid's modified
+        phi-angle model as pyins uses it, the covariance of ``(dr, dv - v_hat x psi, psi)`` is
+        held instead (module notes).
+    linearisation : {"midpoint", "end"}
+        Where F is evaluated over a covariance step: ``"midpoint"`` (default) at the mean of the
+        navigation states at the step's two ends (:func:`midpoint_pva`; the midpoint rule, local
+        error O(dt^3) in ``Phi``), ``"end"`` at the state at its end (O(dt^2)). The specific
+        force is the step's mean either way.
+    timing : {"fix", "epoch"}
+        ``"fix"`` (default): a fix at ``t_m`` inside the IMU interval ending at the filter epoch
+        ``t_k`` measures the error at ``t_m``, ``H (I - (t_k - t_m) F)``; ``"epoch"``: it is
+        taken as the error at ``t_k`` (an error of ``(t_k - t_m) dv`` in the predicted position
+        error, below one IMU step times the velocity error). The predicted measurement is the
+        state interpolated to ``t_m`` either way.
     """
 
     def __init__(self, gyro_models: object, accel_models: object, *, dt_filter: float = 0.1,
@@ -498,11 +647,16 @@ class LooselyCoupledFilter:
                  accel_bias_sd: float = 0.0, gate: float | None = 0.9999,
                  gnss_sd: object = (3.0, 3.0, 5.0), gnss_vel_sd: object = 0.2,
                  lever_arm_sd: object = 0.0, record: float | None = None,
-                 error_model: str = "psi") -> None:
+                 error_model: str = "psi", linearisation: str = "midpoint",
+                 timing: str = "fix") -> None:
         self.models = _axis_models(gyro_models, accel_models)
-        if error_model not in ERROR_MODELS:
-            raise InputError(f"error_model must be one of {ERROR_MODELS}, got {error_model!r}")
+        for name, value, allowed in (("error_model", error_model, ERROR_MODELS),
+                                     ("linearisation", linearisation, LINEARISATIONS),
+                                     ("timing", timing, TIMINGS)):
+            if value not in allowed:
+                raise InputError(f"{name} must be one of {allowed}, got {value!r}")
         self.error_model = error_model
+        self.linearisation, self.timing = linearisation, timing
         if record is not None and not (record > 0 and math.isfinite(record)):
             raise InputError(f"record must be a positive number of seconds, got {record!r}")
         self.record = None if record is None else float(record)
@@ -653,25 +807,12 @@ class _Run:
     # -------------------------------------------------------------- covariance propagation
     def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
         mech, sens = self.mech, self.sens
-        C = _dcm(mech.q)
-        lat, hgt = mech.lat, mech.h
-        vn, ve, vd = mech.v
-        sl, cl = math.sin(lat), math.cos(lat)
-        w = 1.0 - earth.E2 * sl * sl
-        re = earth.A / math.sqrt(w)
-        rn = re * (1.0 - earth.E2) / w
-        g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
-                                * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
-        r0 = math.sqrt(rn * re) + hgt
-        om = earth.OMEGA_IE
-        wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
-        win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
-        cor = (win[0] + om * cl, win[1], win[2] - om * sl)
+        lat, hgt, v, q = mech.lat, mech.h, mech.v, mech.q
+        if self.flt.linearisation == "midpoint":
+            lat, hgt, v, q = midpoint_pva(self._start, (lat, hgt, v, q))
+        C = _dcm(q)
         F = self._F
-        F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
-        F[3:6, 3:6] = -_skew(cor)
-        F[3:6, 6:9] = _skew(f_n)
-        F[6:9, 6:9] = -_skew(win)
+        _fill_error_dynamics(F, lat, hgt, v, f_n)
         W = self._W
         W[3:6, 3:6] = (C * sens.psd[3:6]) @ C.T
         W[6:9, 6:9] = (C * sens.psd[0:3]) @ C.T
@@ -717,12 +858,19 @@ class _Run:
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
         Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
+        lag = self.t_now - self.t_meas
+        if Hl is not None:
+            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
+            H[:, lever] = Hl
+        if self.flt.timing == "fix" and lag > 0.0:
+            # the fix measures the error at its own time t_m, e(t_m) = (I - lag F) e(t_k) to
+            # first order in lag = t_k - t_m < one IMU step (F of the step just propagated)
+            H -= lag * (H @ self._F)
+            Hl = H
         if Hl is None:
             PHt = self.P[:, :9] @ Hn.T
             S = Hn @ PHt[:9] + R
         else:
-            lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
-            H[:, lever] = Hl
             PHt = self.P @ H.T
             S = H @ PHt + R
         try:
@@ -762,10 +910,22 @@ class _Run:
         mech.lat -= d[0] / (rn + mech.h)
         mech.lon -= d[1] / ((re + mech.h) * math.cos(mech.lat))
         mech.h += d[2]
+        model = self.flt.error_model
         vn, ve, vd = mech.v
-        mech.v = (vn - d[3], ve - d[4], vd - d[5])
-        if self.flt.error_model == "modified-phi":
-            self._hold_modified((-d[3], -d[4], -d[5]))
+        if model == "modified-phi":
+            # the exact injection of the modified velocity error dv' = v_hat - R(psi)' v:
+            # v <- R(psi_hat) (v_hat - dv'_hat), dv'_hat = dv_hat - v_hat x psi_hat
+            # (pyins' InsErrorModel.correct_pva); then hold P in (dv', psi) across the change
+            v = np.array(mech.v)
+            rot = frames.quat_to_dcm(frames.rotvec_to_quat(dx[6:9]))
+            new = rot @ (v - dx[3:6] + np.cross(v, dx[6:9]))
+            mech.v = (float(new[0]), float(new[1]), float(new[2]))
+            self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
+                                                             _skew(new - v)]))
+        else:
+            mech.v = (vn - d[3], ve - d[4], vd - d[5])
+            if model == "psi-exact":
+                self._reset(slice(6, 9), slice(6, 9), _left_jacobian(dx[6:9]))
         # eq. 26 in multiplicative form: q <- q(psi) * q
         px, py, pz = d[6:9]
         a = math.sqrt(px * px + py * py + pz * pz)
@@ -783,13 +943,14 @@ class _Run:
             self.s = self.s - dx[9:]
             self.corr = self.sens.H @ self.s
 
-    def _hold_modified(self, dvel: tuple[float, float, float]) -> None:
-        """Hold the covariance of the modified velocity error ``dv - v_hat x psi`` while
-        ``v_hat`` changes by `dvel` (m/s): ``P <- A P A'`` with ``A = I + [dvel x]`` in the
-        (velocity, attitude) block (module notes, ``error_model="modified-phi"``)."""
-        A = self._eye.copy()
-        A[3:6, 6:9] = _skew(dvel)
-        P = A @ self.P @ A.T
+    def _reset(self, rows: slice, cols: slice, block: np.ndarray) -> None:
+        """The reset of the error state's covariance across a feedback, ``P <- G P G'`` with
+        ``G`` the identity except ``G[rows, cols] = block`` (`rows` inside `cols`): the
+        Jacobian of the error after the feedback with respect to the error before it (module
+        notes, ``error_model``)."""
+        P = self.P.copy()
+        P[rows] = block @ self.P[cols]
+        P[:, rows] = P[:, cols] @ block.T
         self.P = 0.5 * (P + P.T)
 
     # -------------------------------------------------------------- loop
@@ -848,6 +1009,8 @@ class _Run:
         return self._result(rows, epochs, epoch_rows, nav_P)
 
     def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
+        mech = self.mech
+        self._start = (mech.lat, mech.h, mech.v, mech.q)  # the next covariance step's start
         epochs.append((self.t_now, np.sqrt(np.clip(np.diag(self.P), 0, None)), self.s.copy(),
                        self.corr.copy()))
         epoch_rows.append(row)

@@ -109,20 +109,21 @@ def test_navigate_estimates_the_lever_arm(recording, tmp_path) -> None:
 
 
 def test_navigate_error_model_option(recording, tmp_path) -> None:
-    """--error-model modified-phi reaches the filter (the report names it, the trajectory
-    differs from psi's at second order) and keeps the trajectory as accurate."""
+    """--error-model psi-exact and modified-phi reach the filter (the report names them, the
+    trajectories differ from psi's at second order) and keep the trajectory as accurate."""
     folder, truth = recording
     tables = {}
-    for model in ("psi", "modified-phi"):
+    for model in ("psi", "psi-exact", "modified-phi"):
         out = tmp_path / model
         assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
                      str(out), "--init", _init_text(truth), "--gyro-bias-sd", "1e-4",
                      "--accel-bias-sd", "0.01", "--error-model", model, "--no-plots"]) == 0
         assert f"filter reset: {model}" in (out / "report.txt").read_text()
         tables[model] = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
-    a, b = tables["psi"], tables["modified-phi"]
-    assert 0 < np.abs(a[:, 4:7] - b[:, 4:7]).max() < 0.1  # m/s: the resets differ, a little
-    for t in (a, b):
+    a = tables["psi"]
+    for b in (tables["psi-exact"], tables["modified-phi"]):
+        assert 0 < np.abs(a[:, 4:7] - b[:, 4:7]).max() < 0.1  # m/s: the resets differ, a little
+    for t in tables.values():
         assert np.median(horizontal_error(truth, t[:, 0], t[:, 1], t[:, 2])) < 2.0
     with pytest.raises(SystemExit):  # argparse refuses an unknown name
         main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
