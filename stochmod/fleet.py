@@ -80,8 +80,9 @@ STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": 
 _MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
                          f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None}
-#: What the local cluster's process server imports before it forks the workers.
-_SERVER_PRELOAD = ("distributed", "stochmod._fleet_worker")
+#: What the local cluster's process server imports before it forks the workers (the last one
+#: makes its exit skip the interpreter's teardown: :mod:`stochmod._fleet_server`).
+_SERVER_PRELOAD = ("distributed", "stochmod._fleet_worker", "stochmod._fleet_server")
 _HAS_SERVER = "forkserver" in multiprocessing.get_all_start_methods()  # not on Windows
 #: The workers' environment when dask's configuration is not loaded yet (its defaults).
 _WORKER_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}

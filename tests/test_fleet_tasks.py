@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import csv
 import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -111,6 +113,24 @@ def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
         assert setup["warm_module"] and min(setup["loops"]) >= 1
         assert setup["blas"] == "1" and setup["malloc"] is None  # the server's environment
     assert forkserver._forkserver._forkserver_pid is None  # stopped with its cluster
+
+
+def test_the_process_server_exits_without_the_interpreter_teardown():
+    """The server imports stochmod._fleet_server last; a process that imports it leaves with
+    exit code 0 and without tearing its modules down (a finaliser that would print at teardown
+    does not run), so the command does not wait ~0.8 s for the server's teardown."""
+    assert fleet._SERVER_PRELOAD[-1] == "stochmod._fleet_server"
+    code = ("import stochmod._fleet_server, sys\n"
+            "class Teardown:\n"
+            "    def __del__(self):\n"
+            "        sys.stdout.write('torn down')\n"
+            "keep = Teardown()\n"
+            "sys.stdout.write('ran '); sys.stdout.flush()\n")
+    without = subprocess.run([sys.executable, "-c", code.replace("stochmod._fleet_server", "os")],
+                             capture_output=True, text=True, check=True)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert without.stdout == "ran torn down"  # the finaliser runs at a normal teardown
+    assert (done.returncode, done.stdout) == (0, "ran ")
 
 
 def test_only_a_local_fleet_command_starts_the_process_server_early():

@@ -43,7 +43,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
                       "stochmod.datasheet", "stochmod.exports", "stochmod.triad", "stochmod.report")),
     ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
              "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant",
-             "stochmod.fleet", "stochmod._fleet_worker")),
+             "stochmod.fleet", "stochmod._fleet_worker",
+             "stochmod._fleet_server")),
 )
 
 #: Lazy imports the issue allows: an operator returning an object of a module that imports
