@@ -169,7 +169,10 @@ def test_real_drive_over_seeded_starts_beside_pyins(drive) -> None:
 # 0.148 m, 0.21 of this error allowance, and 0.008 sigma (margins of 4.7 and 3); the psi model
 # misses both on these seeds (errors up to 11.4 m apart, states up to 0.34 sigma from pyins').
 # Before the midpoint linearisation and fix timing: 0.34 m and 0.020 sigma.
-MODIFIED_SEEDS = ("0", "1", "2", "3")
+# Over all the cached seeds this is also the issue's "no worse than pyins per outage": no
+# outage where stochmod is worse beyond 2 standard errors of the paired difference (measured,
+# 10 seeds: +0.05 +- 0.03, -0.01 +- 0.01 and -0.05 +- 0.01 m: not resolved, not resolved,
+# better).
 MODIFIED_SLACK = 0.005
 MODIFIED_ABS = 0.25  # m
 MODIFIED_STATE_SD = 0.025
@@ -177,11 +180,13 @@ MODIFIED_STATE_SD = 0.025
 
 @pytest.mark.slow
 def test_real_drive_with_pyins_reset_reproduces_pyins(drive) -> None:
-    from nav_n380_ensemble import stochmod_runs
+    from nav_n380_ensemble import stochmod_runs, summary, verdict
 
     cache = json.loads(ENSEMBLE.read_text())
-    cache["runs"] = {s: cache["runs"][s] for s in MODIFIED_SEEDS}
+    assert len(cache["runs"]) >= 8
     runs = stochmod_runs(drive, cache, error_model="modified-phi")
+    s = summary({seed: r[0] for seed, r in runs.items()}, cache)
+    assert "worse" not in verdict(s), (verdict(s), s["difference_mean"], s["difference_se"])
     for seed, (errors, ours) in runs.items():
         peer = cache["runs"][seed]
         theirs = np.array(peer["max_horizontal_error_m"])
