@@ -104,12 +104,13 @@ class Process(abc.ABC):
     lattice_rank: ClassVar[int] = 0
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
     #: Optional fast form of :meth:`haar_wv_rows` for one component (compiled, or a thin
-    #: wrapper of compiled code), declared as a ``staticmethod``: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar
-    #: WV at the parameter values `values` (n_params,) to `wv` (J,), writes its Jacobian into
-    #: `jac` (J, n_params) and returns True, with the digits of :meth:`haar_wv_rows`; it
-    #: returns False (leaving `wv` unspecified) where it does not apply. `m` holds the
-    #: half-widths ``1, 2, 4, ..., 2^(J-1)``, `freq` is in Hz. The GMWM optimizer calls it
-    #: when every component of the model has one (:func:`wv_kernel`); None: not offered.
+    #: wrapper of compiled code), declared as a ``staticmethod``:
+    #: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar WV at the
+    #: parameter values `values` (n_params,) to `wv` (J,), writes its Jacobian into `jac`
+    #: (J, n_params) and returns True, with the digits of :meth:`haar_wv_rows`; it returns
+    #: False (leaving `wv` unspecified) where it does not apply. `m` holds the half-widths
+    #: ``1, 2, 4, ..., 2^(J-1)``, `freq` is in Hz. The GMWM optimizer calls it when every
+    #: component of the model has one (:func:`wv_kernel`); None: not offered.
     haar_wv_kernel: ClassVar[Any] = None
 
     def __attrs_post_init__(self) -> None:
@@ -591,7 +592,8 @@ def wv_kernel(cls: type[Process]) -> Any:
     kernel = getattr(cls, "haar_wv_kernel", None)
     if kernel is None or wv_rows_domains(cls) is None:
         return None
-    return kernel if issubclass(_owner(cls, "haar_wv_kernel"), _owner(cls, "haar_wv_rows")) else None
+    owns = issubclass(_owner(cls, "haar_wv_kernel"), _owner(cls, "haar_wv_rows"))
+    return kernel if owns else None
 
 
 def declares_psd(process: Process | type[Process]) -> bool:

@@ -149,7 +149,8 @@ class GM(Process):
     lattice_copies: ClassVar[int] = 3
     lattice_rank: ClassVar[int] = 10
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("B", "Tc"), ("rate", "variance"))
-    haar_wv_kernel: ClassVar[Any] = None if positive_rows_kernel is None else staticmethod(_wv_kernel)
+    haar_wv_kernel: ClassVar[Any] = (None if positive_rows_kernel is None
+                                     else staticmethod(_wv_kernel))
 
     # ------------------------------------------------------------------ constructors
     @classmethod

@@ -125,7 +125,8 @@ class VectorBinding:
         if self._kernels is not None:  # one kernel call per component, in model order
             wv = np.zeros(self.levels)
             jac = np.empty((self.levels, self.n_params))
-            if all(kernel(values[s], self._m, self.freq, wv, jac[:, s]) for kernel, s in self._kernels):
+            if all(kernel(values[s], self._m, self.freq, wv, jac[:, s])
+                   for kernel, s in self._kernels):
                 return wv, jac
         parts: list[np.ndarray | None] = [None] * len(self.slices)
         jac = np.empty((self.levels, self.n_params))
