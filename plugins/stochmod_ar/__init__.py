@@ -208,7 +208,11 @@ class AR(Process):
         deep levels), Richardson differences (:meth:`_wv_jacobian_by_differences`) replace the
         entries whose own error estimate is smaller. Relative accuracy ~1e-12 typically, 1e-4
         or better next to near-repeated roots, degrading like ``1e-10 / (1 - max |z|)`` as roots
-        approach the unit circle (5e-6 for roots 5e-9 from +1 and -1). Where neither form
+        approach the unit circle (5e-6 for roots 5e-9 from +1 and -1); next to near-repeated
+        roots that are also close to the circle, the differences' rounding at their largest step
+        sets a floor of about ``1e-12 / (0.3 d)``, ``d`` the distance in phi-space to
+        non-stationarity (:meth:`_wv_jacobian_by_differences`; 1.2e-4 measured for real roots
+        7e-5 and 3e-4 from +1, where ``d = 1e-8``). Where neither form
         resolves an entry to 10% (several roots within ~1e-8 of the circle, where one ulp of
         phi moves the WV by more than the step differences need), an
         :class:`~stochmod.errors.AccuracyWarning` names the entries.
