@@ -857,17 +857,18 @@ class _Run:
         m = y.size
         H = np.zeros((m, self.n))
         H[:, :9] = Hn
-        Hl = None if self.sens.lever is None else meas.lever_arm_jacobian(snap)
         lag = self.t_now - self.t_meas
-        if Hl is not None:
+        navigation_only = True  # H reaches only the 9 navigation states
+        if self.sens.lever is not None:
             lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
-            H[:, lever] = Hl
+            H[:, lever] = meas.lever_arm_jacobian(snap)
+            navigation_only = False
         if self.flt.timing == "fix" and lag > 0.0:
             # the fix measures the error at its own time t_m, e(t_m) = (I - lag F) e(t_k) to
             # first order in lag = t_k - t_m < one IMU step (F of the step just propagated)
             H -= lag * (H @ self._F)
-            Hl = H
-        if Hl is None:
+            navigation_only = False
+        if navigation_only:
             PHt = self.P[:, :9] @ Hn.T
             S = Hn @ PHt[:9] + R
         else:
