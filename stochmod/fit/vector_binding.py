@@ -59,10 +59,7 @@ class VectorBinding:
         for k, p in enumerate(template.processes):
             groups.setdefault(type(p), []).append(k)
         self._families = [(template.processes[ks[0]], ks) for ks in groups.values()]
-        # one point (:meth:`point`): each family's rows taken from the vector by one index
-        # array (K components, n_params each), and each domain's membership test
-        self._takes = [np.array([np.arange(self.slices[k].start, self.slices[k].stop) for k in ks])
-                       for _, ks in self._families]
+        # one point (:meth:`point`): each domain's membership test
         self._tests = [(scalar_contains(d.name), cols) for d, cols in self._domains]
         # the components' kernels (Process.haar_wv_kernel), when every one has one
         kernels = [wv_kernel(type(p)) for p in template.processes]
@@ -109,10 +106,10 @@ class VectorBinding:
     def point(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """The model's WV (J,), unit^2, and its Jacobian with respect to the natural parameter
         vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
-        domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers (the same
-        elementwise operations and sum) with the per-row bookkeeping left out; by the
-        components' kernels (:attr:`~stochmod.process.Process.haar_wv_kernel`) when every one
-        has one (the same digits again)."""
+        domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers, with the
+        domain tests done value by value; by the components' kernels
+        (:attr:`~stochmod.process.Process.haar_wv_kernel`) when every one has one (the same
+        digits again)."""
         if len(self._domains) == 1:
             values = self._domains[0][0].from_unconstrained(theta)
         else:
@@ -128,17 +125,8 @@ class VectorBinding:
             if all(kernel(values[s], self._m, self.freq, wv, jac[:, s])
                    for kernel, s in self._kernels):
                 return wv, jac
-        parts: list[np.ndarray | None] = [None] * len(self.slices)
-        jac = np.empty((self.levels, self.n_params))
-        for (proto, ks), take in zip(self._families, self._takes):
-            wv, dwv = proto.haar_wv_rows(values[take], self.levels, self.freq)
-            for i, k in enumerate(ks):
-                parts[k] = wv[i]
-                jac[:, self.slices[k]] = dwv[i]
-        total = parts[0].copy()
-        for part in parts[1:]:  # in model order: the digits of Model.wv's sum
-            total += part
-        return total, jac
+        wv, jac = self.evaluate(values[None, :])
+        return wv[0], jac[0]
 
     def derivatives(self, theta: np.ndarray) -> np.ndarray:
         """``d value / d theta`` of every entry of one unconstrained vector `theta` (n,): the
