@@ -109,6 +109,8 @@ def as_signals(x: ArrayLike, *, name: str = "x", min_length: int = 2) -> np.ndar
 
 def check_freq(freq: float, *, name: str = "freq") -> float:
     """Return a sampling frequency in Hz as a positive finite float, or raise."""
+    if freq.__class__ is float and 0.0 < freq < math.inf:  # the common case, no conversion
+        return freq
     if isinstance(freq, bool) or not isinstance(freq, numbers.Real):
         raise InputError(f"{name} must be a positive number of Hz, got {freq!r}")
     value = float(freq)

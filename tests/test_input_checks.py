@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from stochmod._validation import as_signal
+from stochmod._validation import as_signal, check_freq
 from stochmod.errors import InputError
 
 # every float64, the extremes, infinities and NaN included: sums that overflow, cancel or
@@ -39,3 +39,19 @@ def test_finite_values_whose_sum_overflows_pass_without_a_warning():
         assert np.array_equal(as_signal(x), x)
     with pytest.raises(InputError, match="inf at flat index 3"):
         as_signal(np.r_[x[:3], np.inf, -x[:4]])
+
+
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                 st.floats(allow_nan=False).map(np.float64), st.integers(-5, 10**6),
+                 st.booleans()))
+def test_check_freq_accepts_exactly_the_positive_finite_numbers(freq):
+    """A sampling frequency passes exactly when it is a real number (not a bool) that is
+    positive and finite, and comes back as that value in a plain float (the plain-float fast
+    path gives the general path's verdict and value)."""
+    ok = (not isinstance(freq, bool)) and 0 < float(freq) and float(freq) != float("inf")
+    if ok:
+        out = check_freq(freq)
+        assert out.__class__ is float and out == float(freq)
+    else:
+        with pytest.raises(InputError, match="freq"):
+            check_freq(freq)

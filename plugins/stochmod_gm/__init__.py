@@ -265,8 +265,7 @@ class GM(Process):
         bit for bit, in one call (:func:`stochmod.geometric.haar_wv_positive_rows`):
         shapes (K, J) in u^2 and (K, J, 2)."""
         values = np.asarray(values, dtype=np.float64).reshape(-1, 2)
-        if freq.__class__ is not float or not 0.0 < freq < math.inf:  # else check_freq's value
-            freq = check_freq(freq)
+        freq = check_freq(freq)
         w, dw_du = haar_wv_positive_rows(values[:, 0] / freq, _levels_m(levels))
         sigma2 = values[:, 1:2]
         jac = np.empty(w.shape + (2,))
