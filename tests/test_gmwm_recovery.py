@@ -137,3 +137,21 @@ def test_jtest_rejects_a_true_model_at_its_nominal_rate():
         pvalues.append(fit.jtest.pvalue)
     rate = np.mean(np.asarray(pvalues) < 0.05)
     assert 0.02 <= rate <= 0.09, rate
+
+
+def test_pvalues_and_intervals_are_scipy_stats_chi2_and_normal():
+    # the J-test's p-value is chi2(dof)'s survival function and the intervals use the normal
+    # quantile; results.py computes them with scipy.special, checked here against the public
+    # distributions of scipy.stats, on the estimate and at the extremes of the statistic
+    from scipy import stats
+
+    from stochmod.fit.results import JTest
+
+    truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=3e-6)", FREQ)
+    fit = gmwm(truth.simulate(2**13, rng=np.random.default_rng(79)), "GM+WN", FREQ)
+    jt = fit.jtest
+    assert isinstance(jt, JTest) and jt.df >= 1
+    assert jt.pvalue == pytest.approx(stats.chi2.sf(jt.statistic, jt.df), rel=1e-12, abs=0)
+    for e in fit.parameters():  # positive parameters: value */ exp(z se / value)
+        z = np.log(e.high / e.value) * e.value / e.std_error
+        assert z == pytest.approx(stats.norm.ppf(1 - fit.alpha / 2), rel=1e-9)

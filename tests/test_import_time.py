@@ -63,13 +63,16 @@ def test_a_command_imports_its_own_module_only() -> None:
         assert sorted(sub.choices) == _subcommand_modules()
 
 
-def test_calibrate_and_every_plugin_load_without_scipy_signal() -> None:
+def test_calibrate_and_every_plugin_load_without_scipy_signal_or_stats() -> None:
     # a fleet worker's start (stochmod._fleet_worker) before its warm-up: the calibrate command
-    # and every registered plugin; scipy.signal is for simulations and the classical readings
+    # and every registered plugin; scipy.signal is for simulations and the classical readings,
+    # scipy.stats (0.4 s) for the classical readings' tests (calibrate's p-values and
+    # intervals take scipy.special's chdtrc and ndtri, which scipy.stats' chi2 and norm call)
     code = ("from stochmod.cli import _parser_for\n_parser_for(['calibrate'])\n"
             "from stochmod.registry import combiners, processes, readers\n"
             "assert len(processes()) >= 7 and readers() and len(combiners()) >= 3")
-    assert _loaded(code)["scipy.signal"] is False
+    loaded = _loaded(code)
+    assert loaded["scipy.signal"] is False and loaded["scipy.stats"] is False
 
 
 def test_type_checking_block_names_the_lazy_names() -> None:

@@ -62,6 +62,13 @@ def test_replicates_of_different_models_are_rejected() -> None:
     fit = stochmod.gmwm([*a, *b], "GM+WN", FREQ)
     assert fit.pooled.test.pvalue < 1e-4
     assert fit.pooled.test.dof == 3 * fit.pooled.test.levels.size
+    # the p-value is chi2(dof)'s survival function (scipy.stats' public one, independently)
+    from scipy import stats
+
+    same = stochmod.gmwm(a, "GM+WN", FREQ).pooled.test
+    for test in (fit.pooled.test, same):
+        ref = stats.chi2.sf(test.statistic, test.dof)
+        assert test.pvalue == pytest.approx(ref, rel=1e-12, abs=1e-300)
 
 
 def test_select_accepts_replicates() -> None:

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 
 import attrs
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from stochmod.errors import DomainError, EstimationError
 from stochmod.fit.engine import SearchResult, canonical, sandwich
@@ -332,7 +332,7 @@ class GMWMResult:
         evals, evecs = evals[-df:], evecs[:, -df:]
         z = evecs.T @ (r / scale)
         stat = float(np.sum(z * z / evals))
-        return JTest(stat, int(df), float(stats.chi2.sf(stat, df)))
+        return JTest(stat, int(df), float(special.chdtrc(df, stat)))
 
     def parameters(self) -> list[ParameterEstimate]:
         """Canonical parameters with standard errors and intervals.
@@ -340,7 +340,7 @@ class GMWMResult:
         Positive parameters get intervals on the log scale (delta method), so they stay
         positive; others are symmetric.
         """
-        z = stats.norm.ppf(1 - self.alpha / 2)
+        z = special.ndtri(1 - self.alpha / 2)
         vec = self.model.vector()[self.free_mask]
         units = _units(self.model)[self.free_mask]
         out = []
@@ -352,7 +352,7 @@ class GMWMResult:
     def physical(self) -> list[ParameterEstimate]:
         """Physical parameters (GM correlation time and sigma, WN density, RW K ...) with
         intervals from the delta method on the log scale."""
-        z = stats.norm.ppf(1 - self.alpha / 2)
+        z = special.ndtri(1 - self.alpha / 2)
         freq = self.model.freq
         C = np.zeros((self.model.n_params,) * 2)
         C[np.ix_(self.free_mask, self.free_mask)] = self.cov_params

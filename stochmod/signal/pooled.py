@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
+from scipy import special
 
 from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_alpha, check_freq, check_positive_int
@@ -143,7 +143,7 @@ def wv_equality_test(wvs: Sequence[WaveletVariance], covariances: Sequence[np.nd
     common = np.linalg.solve(total, np.sum([p @ v for p, v in zip(precisions, nus)], axis=0))
     q = float(sum((v - common) @ p @ (v - common) for p, v in zip(precisions, nus)))
     df = (len(wvs) - 1) * use.size
-    return EqualityTest(statistic=q, dof=df, pvalue=float(stats.chi2.sf(q, df)), levels=use + 1)
+    return EqualityTest(statistic=q, dof=df, pvalue=float(special.chdtrc(df, q)), levels=use + 1)
 
 
 def pool_wv(wvs: Sequence[WaveletVariance], covariances: Sequence[np.ndarray], *,
