@@ -8,8 +8,9 @@ and the cluster's start-up included): ``stochmod calibrate FILE ... --candidates
 (no ``--workers``: one file after the other in one process, each file's fits in its own
 thread), with ``--workers N`` (one dask task per file) and with ``--workers 1`` (the same
 fleet machinery on one worker). The runs are made in the order parallel, serial, one-worker
-(and back again with ``--rounds 2``, so that a drift of the machine's load hits all alike);
-the best of each kind is kept and the runs' results are checked to be identical.
+(and back again, and so on, with ``--rounds N``, so that a drift of the machine's load hits
+all alike); the best of each kind is kept, each round's own ratios are printed beside the
+ratios of the bests, and the runs' results are checked to be identical.
 
 Printed: every run's wall time and the CPU time of its whole process tree; the ratios
 serial / parallel and one-worker / parallel; and, from ``OUT/fleet_tasks.csv`` (each task's
@@ -137,15 +138,18 @@ def main() -> None:
     p.add_argument("--files", type=int, default=12)
     p.add_argument("--n", type=int, default=2**20, help="samples per axis (default 2^20)")
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--rounds", type=int, choices=(1, 2), default=1,
-                   help="1: parallel, serial, one-worker; 2: and back again")
+    p.add_argument("--rounds", type=int, default=1,
+                   help="rounds of every kind of run: parallel, serial, one-worker, then back "
+                        "again and so on, so that a drift of the machine hits all alike (default 1)")
     p.add_argument("--no-one-worker", action="store_true", help="skip the one-worker fleet runs")
     p.add_argument("--command", default=None, metavar="CMD",
                    help="the stochmod command to time (default: this environment's console "
                         "script), e.g. 'python /tmp/old/run_stochmod.py' for another checkout")
     a = p.parse_args()
     kinds = ["parallel", "serial"] + ([] if a.no_one_worker else ["one-worker"])
-    order = kinds + kinds[::-1] if a.rounds == 2 else kinds
+    if a.rounds < 1:
+        p.error(f"--rounds must be a positive integer, got {a.rounds}")
+    order = [kind for r in range(a.rounds) for kind in (kinds if r % 2 == 0 else kinds[::-1])]
     extra = {"parallel": ["--workers", str(a.workers)], "serial": [], "one-worker": ["--workers", "1"]}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -169,6 +173,11 @@ def main() -> None:
     print(f"speed-up serial / parallel           {ser['wall'] / par['wall']:8.2f}")
     if "one-worker" in best:
         print(f"speed-up one-worker / parallel       {best['one-worker']['wall'] / par['wall']:8.2f}")
+    if a.rounds > 1:  # the same ratios within each round (its runs minutes apart, not the bests)
+        for other in [k for k in kinds if k != "parallel"]:
+            ratios = [o["wall"] / p["wall"] for o, p in zip(runs[other], runs["parallel"])]
+            print(f"  {other} / parallel in each round: "
+                  + ", ".join(f"{r:.2f}" for r in ratios) + f" (median {np.median(ratios):.2f})")
     print(f"identical results                    {same}")
     ser_cpu = sum(t["cpu"] for t in ser["tasks"])
 
