@@ -12,7 +12,13 @@ import numpy as np
 from stochmod.errors import InputError
 from stochmod.model import Model
 from stochmod.nav.alignment import InitialState
-from stochmod.nav.filter import ERROR_MODELS, LooselyCoupledFilter, NavResult
+from stochmod.nav.filter import (
+    ERROR_MODELS,
+    LINEARISATIONS,
+    TIMINGS,
+    LooselyCoupledFilter,
+    NavResult,
+)
 from stochmod.nav.logs import calibration_record, read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
 
@@ -76,6 +82,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="how the filter feeds back and resets its covariance: psi (default, "
                         "first-order reset), psi-exact (its exact reset Jacobian) or pyins' "
                         "modified-phi (docs/navigation.md, 'Reset')")
+    p.add_argument("--linearisation", choices=LINEARISATIONS, default="midpoint",
+                   help="where a covariance step evaluates F: midpoint (default; at the mean of "
+                        "the step's two navigation states, local error O(dt^3)) or end (at its "
+                        "end state, O(dt^2))")
+    p.add_argument("--timing", choices=TIMINGS, default="fix",
+                   help="which time a GNSS fix's error refers to: fix (default; its own time "
+                        "stamp, H (I - (t_k - t_m) F)) or epoch (the filter epoch after it)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 
@@ -162,7 +175,8 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
         f"turn-on bias 1-sigma: gyro {gyro_bias_sd:.3g} rad/s, accel {accel_bias_sd:.3g} m/s^2",
-        f"filter reset: {args.error_model}",
+        f"filter reset: {args.error_model}; linearisation: {args.linearisation}; fix timing: "
+        f"{args.timing}",
         "",
         result.summary(),
     ]
@@ -225,7 +239,8 @@ def run(args: argparse.Namespace) -> int:
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
                                gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
                                lever_arm_sd=lever_arm_sd, record=record,
-                               error_model=args.error_model)
+                               error_model=args.error_model, linearisation=args.linearisation,
+                               timing=args.timing)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages)
     out = Path(args.out)
