@@ -175,7 +175,8 @@ def main() -> None:
         print(f"speed-up one-worker / parallel       {best['one-worker']['wall'] / par['wall']:8.2f}")
     if a.rounds > 1:  # the same ratios within each round (its runs minutes apart, not the bests)
         for other in [k for k in kinds if k != "parallel"]:
-            ratios = [o["wall"] / p["wall"] for o, p in zip(runs[other], runs["parallel"])]
+            ratios = [run["wall"] / par_run["wall"]
+                      for run, par_run in zip(runs[other], runs["parallel"])]
             print(f"  {other} / parallel in each round: "
                   + ", ".join(f"{r:.2f}" for r in ratios) + f" (median {np.median(ratios):.2f})")
     print(f"identical results                    {same}")
