@@ -142,7 +142,7 @@ def test_jtest_rejects_a_true_model_at_its_nominal_rate():
 def test_pvalues_and_intervals_are_scipy_stats_chi2_and_normal():
     # the J-test's p-value is chi2(dof)'s survival function and the intervals use the normal
     # quantile; results.py computes them with scipy.special, checked here against the public
-    # distributions of scipy.stats, on the estimate and at the extremes of the statistic
+    # distributions of scipy.stats (the J-test's level over many fits: the test above)
     from scipy import stats
 
     from stochmod.fit.results import JTest
