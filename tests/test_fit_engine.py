@@ -18,7 +18,8 @@ import stochmod
 import stochmod.fit.weighting  # used as stochmod.fit.weighting below
 from stochmod.errors import EstimationError, SpecError
 from stochmod.fit import results as results_module
-from stochmod.fit.engine import BOUND, Problem, canonical, refine, resolve_model, sandwich, search
+from stochmod.fit.engine import (BOUND, Problem, canonical, refine, resolve_model, sandwich, search,
+                                 weighted_projection)
 from stochmod.fit.indirect import IndirectGMWMResult
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weightings import WeightingInput, get_weighting
@@ -59,6 +60,46 @@ def test_sandwich_against_explicit_inverses() -> None:
         sandwich(np.column_stack([D[:, 0], np.zeros(9)]), W, V)
     with pytest.raises(EstimationError, match="not identified"):
         sandwich(np.column_stack([D[:, 0], 2 * D[:, 0]]), W, V)
+
+
+def test_weighted_projection_against_explicit_inverses_at_any_column_scale() -> None:
+    # the fit's projection D (D' W D)^-1 D' W does not depend on the columns' scales; with a
+    # column of order 1e-150 the unscaled solve is at the edge of the float range, the scaled
+    # one is not: compare with explicit inverses on the same columns brought to order 1
+    rng = np.random.default_rng(2)
+    D1 = rng.normal(size=(9, 3))
+    A = rng.normal(size=(9, 9))
+    W = A @ A.T + np.eye(9)
+    for scale in ([1.0, 1.0, 1.0], [1.0, 1e-4, 1e3], [1.0, 1e-150, 1e150], [1e-140, 1.0, 1.0]):
+        D = D1 * scale
+        Ds, Bs, norms = weighted_projection(D, W)
+        np.testing.assert_allclose(norms, np.linalg.norm(D, axis=0), rtol=1e-14)
+        np.testing.assert_allclose(Ds * norms, D, rtol=1e-14)
+        projection = D1 @ np.linalg.inv(D1.T @ W @ D1) @ D1.T @ W
+        np.testing.assert_allclose(Ds @ Bs, projection, rtol=1e-9, atol=1e-12)
+    with pytest.raises(EstimationError, match="does not depend on some parameter"):
+        weighted_projection(D1 * [1.0, 1e-312, 1.0], W)  # its squares underflow: norm 0
+    with pytest.raises(EstimationError, match="not identified"):
+        weighted_projection(np.column_stack([D1[:, 0], 2 * D1[:, 0]]), W)
+
+
+def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
+    # `stochmod calibrate --n 65536` stopped with "Eigenvalues did not converge" in the J-test
+    # of the candidate 3*GM+RR on accel_x: its first GM's beta ran to 7e4 (correlation time
+    # 1.4e-5 s, white noise at 100 Hz), where d wv / d beta is subnormal (1e-312); the unscaled
+    # solve of the J-test's projection returned inf and NaN instead of failing. Now the
+    # J-test, like the sandwich, reports the parameter as not identified
+    rec = stochmod.examples.xsens_mtig(n=2**16)
+    start = ("GM(beta=70285.66674261213, sigma2=6.967380202173328e-05) + "
+             "GM(beta=36.673130617480645, sigma2=4.166025011863311e-07) + "
+             "GM(beta=0.012058965719611538, sigma2=0.0031713053440993975) + "
+             "RR(omega=1.5958560890060052e-23)")
+    fit = stochmod.gmwm(rec.column("accel_x"), "3*GM+RR", rec.freq, starts=[start])
+    beta = fit.model.processes[0]
+    assert beta.beta > 1e4 and np.linalg.norm(fit.jacobian[:, 0]) == 0.0
+    assert fit.jtest is None
+    with pytest.raises(EstimationError, match="does not depend on some parameter"):
+        fit.std_errors  # noqa: B018
 
 
 def test_canonical_orders_repeated_components_fastest_first() -> None:

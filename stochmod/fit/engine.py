@@ -46,6 +46,7 @@ __all__ = [
     "refine",
     "search",
     "canonical",
+    "weighted_projection",
     "sandwich",
 ]
 
@@ -435,6 +436,34 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     return SearchResult(model=problem.model(best["x"]), nfev=nfev, n_starts=len(candidates), **best)
 
 
+def weighted_projection(D: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``B = (D^T W D)^{-1} D^T W`` of eqs. 22-23 in scaled form: ``(Ds, Bs, norms)`` with
+    ``D = Ds diag(norms)`` (D's columns scaled to unit norm) and ``Bs = (Ds^T W Ds)^{-1} Ds^T
+    W``, so that ``B = diag(1 / norms) Bs`` and the fit's projection ``D B = Ds Bs``.
+
+    The scaling keeps the solve well conditioned when a parameter's column is tiny (a
+    parameter the WV barely sees: its row of B is huge, the projection is not); unscaled, a
+    column of subnormal numbers can make the solve return inf and NaN instead of failing.
+
+    Raises
+    ------
+    EstimationError
+        A parameter the WV does not depend on (a column of norm zero, or not finite), or
+        ``D^T W D`` singular.
+    """
+    norms = np.linalg.norm(D, axis=0)
+    if not np.all(np.isfinite(norms) & (norms > 0)):
+        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
+    Ds = D / norms
+    try:
+        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
+    except np.linalg.LinAlgError:
+        raise EstimationError(
+            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
+        ) from None
+    return Ds, Bs, norms
+
+
 def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
     """``B V B^T`` with ``B = (D^T W D)^{-1} D^T W`` (eqs. 22-23), symmetrised.
 
@@ -458,18 +487,10 @@ def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
     Raises
     ------
     EstimationError
-        A parameter the WV does not depend on, or ``D^T W D`` singular.
+        A parameter the WV does not depend on, or ``D^T W D`` singular
+        (:func:`weighted_projection`).
     """
-    norms = np.linalg.norm(D, axis=0)
-    if not np.all(np.isfinite(norms) & (norms > 0)):
-        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
-    Ds = D / norms
-    try:
-        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
-    except np.linalg.LinAlgError:
-        raise EstimationError(
-            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
-        ) from None
+    _, Bs, norms = weighted_projection(D, W)
     Cs = Bs @ V @ Bs.T
     Cs = 0.5 * (Cs + Cs.T)
     with np.errstate(over="ignore"):

@@ -23,7 +23,7 @@ import numpy as np
 from scipy import special
 
 from stochmod.errors import DomainError, EstimationError
-from stochmod.fit.engine import SearchResult, canonical, sandwich
+from stochmod.fit.engine import SearchResult, canonical, sandwich, weighted_projection
 from stochmod.fit.weighting import (
     bootstrap_covariance,
     chi2_variance,
@@ -301,7 +301,8 @@ class GMWMResult:
         do not count as fitted. V is :attr:`null_wv_covariance`, the
         covariance under the fitted model: with the eq. 17 estimate, whose error the inverse
         amplifies, the test rejects a true model about twice as often as its level says.
-        None when df < 1.
+        None when df < 1, or when a fitted parameter is not identified (the WV does not depend
+        on it at the estimate, or ``D' Omega D`` is singular: :func:`weighted_projection`).
         """
         # a component whose amplitude ran to zero sits on the boundary: its directions are
         # not fitted (the estimate could not go below zero), so they stay in the residual
@@ -315,11 +316,12 @@ class GMWMResult:
         df = min(keep.size, J - p)
         if df < 1:
             return None
-        D, W, V = self.jacobian[:, fitted], self.omega, self.null_wv_covariance
+        V = self.null_wv_covariance
         try:
-            P = np.eye(J) - D @ np.linalg.solve(D.T @ W @ D, D.T @ W)
-        except np.linalg.LinAlgError:
+            Ds, Bs, _ = weighted_projection(self.jacobian[:, fitted], self.omega)
+        except EstimationError:
             return None  # parameters not identified: no residual covariance to test against
+        P = np.eye(J) - Ds @ Bs
         C = (P @ V @ P.T)[np.ix_(keep, keep)]
         r = (self.empirical.wv[:J] - self.model_wv())[keep]
         scale = np.sqrt(np.diag(V)[keep])  # units: work on the correlation scale
