@@ -18,8 +18,16 @@ import stochmod
 import stochmod.fit.weighting  # used as stochmod.fit.weighting below
 from stochmod.errors import EstimationError, SpecError
 from stochmod.fit import results as results_module
-from stochmod.fit.engine import (BOUND, Problem, canonical, refine, resolve_model, sandwich, search,
-                                 weighted_projection)
+from stochmod.fit.engine import (
+    BOUND,
+    Problem,
+    canonical,
+    refine,
+    resolve_model,
+    sandwich,
+    search,
+    weighted_svd,
+)
 from stochmod.fit.indirect import IndirectGMWMResult
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weightings import WeightingInput, get_weighting
@@ -62,25 +70,28 @@ def test_sandwich_against_explicit_inverses() -> None:
         sandwich(np.column_stack([D[:, 0], 2 * D[:, 0]]), W, V)
 
 
-def test_weighted_projection_against_explicit_inverses_at_any_column_scale() -> None:
-    # the fit's projection D (D' W D)^-1 D' W does not depend on the columns' scales; with a
-    # column of order 1e-150 the unscaled solve is at the edge of the float range, the scaled
-    # one is not: compare with explicit inverses on the same columns brought to order 1
+def test_weighted_svd_gives_the_fits_projection_at_any_column_scale() -> None:
+    # the fit's projection D (D' W D)^-1 D' W does not depend on the columns' scales; from the
+    # orthogonal factors, L^-1 U U' L, it stays exact when a column is of order 1e-150 (where
+    # the normal equations leave the float range): compare with explicit inverses on the same
+    # columns brought to order 1
     rng = np.random.default_rng(2)
     D1 = rng.normal(size=(9, 3))
     A = rng.normal(size=(9, 9))
     W = A @ A.T + np.eye(9)
+    projection = D1 @ np.linalg.inv(D1.T @ W @ D1) @ D1.T @ W
     for scale in ([1.0, 1.0, 1.0], [1.0, 1e-4, 1e3], [1.0, 1e-150, 1e150], [1e-140, 1.0, 1.0]):
-        D = D1 * scale
-        Ds, Bs, norms = weighted_projection(D, W)
-        np.testing.assert_allclose(norms, np.linalg.norm(D, axis=0), rtol=1e-14)
-        np.testing.assert_allclose(Ds * norms, D, rtol=1e-14)
-        projection = D1 @ np.linalg.inv(D1.T @ W @ D1) @ D1.T @ W
-        np.testing.assert_allclose(Ds @ Bs, projection, rtol=1e-9, atol=1e-12)
-    with pytest.raises(EstimationError, match="does not depend on some parameter"):
-        weighted_projection(D1 * [1.0, 1e-312, 1.0], W)  # its squares underflow: norm 0
-    with pytest.raises(EstimationError, match="not identified"):
-        weighted_projection(np.column_stack([D1[:, 0], 2 * D1[:, 0]]), W)
+        L, U, s = weighted_svd(D1 * scale, W)
+        np.testing.assert_allclose(L.T @ L, W, rtol=1e-12)
+        assert np.allclose(L, np.triu(L)) and s.size == 3 and s[-1] > 1e-3 * s[0]
+        np.testing.assert_allclose(U.T @ U, np.eye(3), atol=1e-12)
+        np.testing.assert_allclose(np.linalg.solve(L, U @ U.T @ L), projection, rtol=1e-9,
+                                   atol=1e-12)
+    # a column the WV does not see (its squares underflow: norm 0) is left out; collinear
+    # columns leave a singular value at rounding level (not identified)
+    assert weighted_svd(D1 * [1.0, 1e-312, 1.0], W)[2].size == 2
+    s = weighted_svd(np.column_stack([D1[:, 0], -3 * D1[:, 0], D1[:, 1]]), W)[2]
+    assert s.size == 3 and s[-1] < 1e-15 * s[0]
 
 
 def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
@@ -88,7 +99,7 @@ def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
     # of the candidate 3*GM+RR on accel_x: its first GM's beta ran to 7e4 (correlation time
     # 1.4e-5 s, white noise at 100 Hz), where d wv / d beta is subnormal (1e-312); the unscaled
     # solve of the J-test's projection returned inf and NaN instead of failing. Now the
-    # J-test, like the sandwich, reports the parameter as not identified
+    # J-test, like the sandwich and the selection's ranking, reports it as not identified
     rec = stochmod.examples.xsens_mtig(n=2**16)
     start = ("GM(beta=70285.66674261213, sigma2=6.967380202173328e-05) + "
              "GM(beta=36.673130617480645, sigma2=4.166025011863311e-07) + "
@@ -100,6 +111,7 @@ def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
     assert fit.jtest is None
     with pytest.raises(EstimationError, match="does not depend on some parameter"):
         fit.std_errors  # noqa: B018
+    assert not stochmod.fit.criteria.identified(fit)
 
 
 def test_canonical_orders_repeated_components_fastest_first() -> None:
@@ -204,3 +216,46 @@ def test_search_does_no_worse_than_a_local_search_from_the_truth() -> None:
     local = refine(problem.residuals, problem.jacobian, truth.to_unconstrained()[mask])
     assert found.objective <= problem.objective(local.x) * (1 + 1e-9)
     assert found.model.processes[2].sigma2 == pytest.approx(problem.model(local.x).processes[2].sigma2, rel=1e-3)
+
+
+def test_jtest_exists_exactly_for_the_identified_fits_of_a_lattice() -> None:
+    # the J-test and the ranking's identification read the same weighted SVD: on the default
+    # lattice for the bundled MTi-G's accel_y (2^16 samples), every fit without a negligible
+    # component has a J-test if and only if it is identified (19 of 63 are not)
+    from stochmod.fit.criteria import identified
+    from stochmod.fit.results import negligible_components
+    from stochmod.fleet import SerialExecutor
+
+    rec = stochmod.examples.xsens_mtig(n=2**16)
+    sel = stochmod.select(rec.column("accel_y"), rec.freq, executor=SerialExecutor(),
+                          progress=False)
+    plain = {name: fit for name, fit in sel.fits.items() if not negligible_components(fit)}
+    not_identified = [name for name, fit in plain.items() if not identified(fit)]
+    assert len(not_identified) >= 5
+    for name, fit in plain.items():
+        assert (fit.jtest is None) == (name in not_identified), name
+        if fit.jtest is not None:
+            assert 0.0 <= fit.jtest.pvalue <= 1.0 and fit.jtest.df >= 1
+
+
+def test_jtest_statistic_is_eq_27_with_the_explicit_projection(signal: np.ndarray) -> None:
+    # r' (P V P')^+ r on the levels the test keeps, with P = I - D (D' W D)^-1 D' W from
+    # explicit inverses (a well-conditioned fit) and the pseudo-inverse at the J-test's rank
+    # (its df: the eigenvalues of the correlation form above 1e-3 of the largest)
+    from stochmod.fit.results import JTEST_MIN_EDF
+
+    for weighting in ("diagonal", "optimal"):
+        fit = stochmod.gmwm(signal, "GM+WN", FREQ, weighting=weighting)
+        D, W, V = fit.jacobian, fit.omega, fit.null_wv_covariance
+        J = fit.levels
+        P = np.eye(J) - D @ np.linalg.inv(D.T @ W @ D) @ D.T @ W
+        keep = fit.empirical.n_coef[:J] / 2.0 ** fit.empirical.levels[:J] >= JTEST_MIN_EDF
+        r = (fit.empirical.wv[:J] - fit.model_wv())[keep]
+        C = (P @ V @ P.T)[np.ix_(keep, keep)]
+        sd = np.sqrt(np.diag(V)[keep])
+        jt = fit.jtest
+        evals = np.linalg.eigvalsh(C / np.outer(sd, sd))
+        cut = 0.5 * (evals[-jt.df] + evals[-jt.df - 1])  # between the kept and the dropped
+        stat = (r / sd) @ np.linalg.pinv(C / np.outer(sd, sd), rcond=cut / evals[-1],
+                                         hermitian=True) @ (r / sd)
+        assert jt.statistic == pytest.approx(stat, rel=1e-8)

@@ -31,6 +31,7 @@ import attrs
 import numpy as np
 
 from stochmod.errors import InputError
+from stochmod.fit.engine import IDENTIFIED_RTOL, weighted_svd
 from stochmod.fit.results import GMWMResult, negligible_components
 from stochmod.hookspecs import hookimpl
 from stochmod.registry import criteria
@@ -68,7 +69,7 @@ def optimism(fit: GMWMResult, covariance: np.ndarray | None = None) -> float:
     return float(max(2.0 * np.trace(U.T @ (L @ V @ L.T) @ U), 0.0))
 
 
-def identified(fit: GMWMResult, tol: float = 1e-7) -> bool:
+def identified(fit: GMWMResult, tol: float = IDENTIFIED_RTOL) -> bool:
     """Whether the free parameters of `fit` are locally identified by the wavelet variance.
 
     True when the singular values of ``L D`` (``Omega = L' L``, columns scaled to unit norm)
@@ -83,16 +84,8 @@ def identified(fit: GMWMResult, tol: float = 1e-7) -> bool:
 
 def _weighted_svd(fit: GMWMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``L`` with ``Omega = L' L``, and the SVD ``(U, s)`` of ``L D`` with unit-norm columns
-    (column scaling leaves the column space, hence the projector, unchanged)."""
-    D = fit.model.wv_jacobian(fit.levels)[:, fit.free_mask]
-    L = np.linalg.cholesky(0.5 * (fit.omega + fit.omega.T)).T
-    A = L @ D
-    norms = np.linalg.norm(A, axis=0)
-    ok = np.isfinite(norms) & (norms > 0)
-    if not ok.any():
-        return L, np.zeros((A.shape[0], 0)), np.zeros(0)
-    U, s, _ = np.linalg.svd(A[:, ok] / norms[ok], full_matrices=False)
-    return L, U, s
+    (:func:`stochmod.fit.engine.weighted_svd` of the model's analytic Jacobian)."""
+    return weighted_svd(fit.model.wv_jacobian(fit.levels)[:, fit.free_mask], fit.omega)
 
 
 @attrs.frozen

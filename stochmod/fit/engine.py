@@ -46,10 +46,14 @@ __all__ = [
     "refine",
     "search",
     "canonical",
-    "weighted_projection",
+    "IDENTIFIED_RTOL",
+    "weighted_svd",
     "sandwich",
 ]
 
+#: The free parameters of a fit are identified when the singular values of the weighted,
+#: column-scaled Jacobian (:func:`weighted_svd`) satisfy ``s_min > IDENTIFIED_RTOL s_max``.
+IDENTIFIED_RTOL = 1e-7
 #: Bound on every unconstrained parameter, ``|theta_u| <= BOUND``: keeps exp() finite while
 #: allowing any realistic scale.
 BOUND = 300.0
@@ -436,32 +440,26 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     return SearchResult(model=problem.model(best["x"]), nfev=nfev, n_starts=len(candidates), **best)
 
 
-def weighted_projection(D: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``B = (D^T W D)^{-1} D^T W`` of eqs. 22-23 in scaled form: ``(Ds, Bs, norms)`` with
-    ``D = Ds diag(norms)`` (D's columns scaled to unit norm) and ``Bs = (Ds^T W Ds)^{-1} Ds^T
-    W``, so that ``B = diag(1 / norms) Bs`` and the fit's projection ``D B = Ds Bs``.
+def weighted_svd(D: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fit's geometry in the metric of the weighting: ``(L, U, s)`` with ``L`` upper
+    triangular, ``W = L^T L``, and ``U diag(s)`` the thin SVD's left factor and singular values
+    of ``L D`` with its columns scaled to unit norm (column scaling leaves the column space,
+    hence the projection, unchanged; columns of norm zero or not finite, parameters the WV does
+    not depend on, are left out, so that ``s`` can be shorter than D has columns).
 
-    The scaling keeps the solve well conditioned when a parameter's column is tiny (a
-    parameter the WV barely sees: its row of B is huge, the projection is not); unscaled, a
-    column of subnormal numbers can make the solve return inf and NaN instead of failing.
-
-    Raises
-    ------
-    EstimationError
-        A parameter the WV does not depend on (a column of norm zero, or not finite), or
-        ``D^T W D`` singular.
+    The fit's projection ``D (D^T W D)^{-1} D^T W`` (eqs. 22-23) is ``L^{-1} U U^T L`` when
+    ``s`` is well away from zero, computed from orthogonal factors without the normal
+    equations (whose condition is the square of ``L D``'s). Singular values below
+    :data:`IDENTIFIED_RTOL` times the largest mean that some parameters are not identified.
     """
-    norms = np.linalg.norm(D, axis=0)
-    if not np.all(np.isfinite(norms) & (norms > 0)):
-        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
-    Ds = D / norms
-    try:
-        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
-    except np.linalg.LinAlgError:
-        raise EstimationError(
-            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
-        ) from None
-    return Ds, Bs, norms
+    L = np.linalg.cholesky(0.5 * (W + W.T)).T
+    A = L @ D
+    norms = np.linalg.norm(A, axis=0)
+    ok = np.isfinite(norms) & (norms > 0)
+    if not ok.any():
+        return L, np.zeros((A.shape[0], 0)), np.zeros(0)
+    U, s, _ = np.linalg.svd(A[:, ok] / norms[ok], full_matrices=False)
+    return L, U, s
 
 
 def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -487,10 +485,18 @@ def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:
     Raises
     ------
     EstimationError
-        A parameter the WV does not depend on, or ``D^T W D`` singular
-        (:func:`weighted_projection`).
+        A parameter the WV does not depend on, or ``D^T W D`` singular.
     """
-    _, Bs, norms = weighted_projection(D, W)
+    norms = np.linalg.norm(D, axis=0)
+    if not np.all(np.isfinite(norms) & (norms > 0)):
+        raise EstimationError("the wavelet variance does not depend on some parameter at the estimate")
+    Ds = D / norms
+    try:
+        Bs = np.linalg.solve(Ds.T @ W @ Ds, Ds.T @ W)
+    except np.linalg.LinAlgError:
+        raise EstimationError(
+            "D^T Omega D is singular: some parameters are not identified by the wavelet variance"
+        ) from None
     Cs = Bs @ V @ Bs.T
     Cs = 0.5 * (Cs + Cs.T)
     with np.errstate(over="ignore"):

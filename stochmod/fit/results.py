@@ -21,9 +21,10 @@ from typing import Any, Protocol
 import attrs
 import numpy as np
 from scipy import special
+from scipy.linalg import solve_triangular
 
 from stochmod.errors import DomainError, EstimationError
-from stochmod.fit.engine import SearchResult, canonical, sandwich, weighted_projection
+from stochmod.fit.engine import IDENTIFIED_RTOL, SearchResult, canonical, sandwich, weighted_svd
 from stochmod.fit.weighting import (
     bootstrap_covariance,
     chi2_variance,
@@ -301,8 +302,10 @@ class GMWMResult:
         do not count as fitted. V is :attr:`null_wv_covariance`, the
         covariance under the fitted model: with the eq. 17 estimate, whose error the inverse
         amplifies, the test rejects a true model about twice as often as its level says.
-        None when df < 1, or when a fitted parameter is not identified (the WV does not depend
-        on it at the estimate, or ``D' Omega D`` is singular: :func:`weighted_projection`).
+        None when df < 1, or when the fitted parameters are not identified (the WV does not
+        depend on one of them at the estimate, or the singular values of the weighted Jacobian
+        fall below :data:`~stochmod.fit.engine.IDENTIFIED_RTOL` of the largest:
+        :func:`~stochmod.fit.engine.weighted_svd`, whose orthogonal factors give ``P``).
         """
         # a component whose amplitude ran to zero sits on the boundary: its directions are
         # not fitted (the estimate could not go below zero), so they stay in the residual
@@ -317,11 +320,10 @@ class GMWMResult:
         if df < 1:
             return None
         V = self.null_wv_covariance
-        try:
-            Ds, Bs, _ = weighted_projection(self.jacobian[:, fitted], self.omega)
-        except EstimationError:
+        L, U, s = weighted_svd(self.jacobian[:, fitted], self.omega)
+        if s.size < p or (p and not s[-1] > IDENTIFIED_RTOL * s[0]):
             return None  # parameters not identified: no residual covariance to test against
-        P = np.eye(J) - Ds @ Bs
+        P = np.eye(J) - solve_triangular(L, U @ (U.T @ L))  # I - L^-1 U U' L
         C = (P @ V @ P.T)[np.ix_(keep, keep)]
         r = (self.empirical.wv[:J] - self.model_wv())[keep]
         scale = np.sqrt(np.diag(V)[keep])  # units: work on the correlation scale
