@@ -31,7 +31,7 @@ import attrs
 import numpy as np
 
 from stochmod.errors import InputError
-from stochmod.fit.engine import IDENTIFIED_RTOL, weighted_svd
+from stochmod.fit.engine import IDENTIFIED_RTOL, full_rank, weighted_svd
 from stochmod.fit.results import GMWMResult, negligible_components
 from stochmod.hookspecs import hookimpl
 from stochmod.registry import criteria
@@ -78,8 +78,8 @@ def identified(fit: GMWMResult, tol: float = IDENTIFIED_RTOL) -> bool:
     negligible amplitude, whose parameters and intervals mean nothing.
     """
     _, _, s = _weighted_svd(fit)
-    full_rank = bool(s.size == int(fit.free_mask.sum()) and s.size and s[-1] > tol * s[0])
-    return full_rank and not negligible_components(fit)
+    n_free = int(fit.free_mask.sum())
+    return n_free > 0 and full_rank(s, n_free, tol) and not negligible_components(fit)
 
 
 def _weighted_svd(fit: GMWMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -48,6 +48,7 @@ __all__ = [
     "canonical",
     "IDENTIFIED_RTOL",
     "weighted_svd",
+    "full_rank",
     "sandwich",
 ]
 
@@ -460,6 +461,12 @@ def weighted_svd(D: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
         return L, np.zeros((A.shape[0], 0)), np.zeros(0)
     U, s, _ = np.linalg.svd(A[:, ok] / norms[ok], full_matrices=False)
     return L, U, s
+
+
+def full_rank(s: np.ndarray, n_params: int, tol: float = IDENTIFIED_RTOL) -> bool:
+    """Whether the singular values `s` of :func:`weighted_svd` resolve all `n_params`
+    parameters: none was left out and ``s_min > tol s_max`` (True for no parameter)."""
+    return bool(s.size == n_params and (n_params == 0 or s[-1] > tol * s[0]))
 
 
 def sandwich(D: np.ndarray, W: np.ndarray, V: np.ndarray) -> np.ndarray:

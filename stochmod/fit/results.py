@@ -24,7 +24,7 @@ from scipy import special
 from scipy.linalg import solve_triangular
 
 from stochmod.errors import DomainError, EstimationError
-from stochmod.fit.engine import IDENTIFIED_RTOL, SearchResult, canonical, sandwich, weighted_svd
+from stochmod.fit.engine import SearchResult, canonical, full_rank, sandwich, weighted_svd
 from stochmod.fit.weighting import (
     bootstrap_covariance,
     chi2_variance,
@@ -321,7 +321,7 @@ class GMWMResult:
             return None
         V = self.null_wv_covariance
         L, U, s = weighted_svd(self.jacobian[:, fitted], self.omega)
-        if s.size < p or (p and not s[-1] > IDENTIFIED_RTOL * s[0]):
+        if not full_rank(s, p):
             return None  # parameters not identified: no residual covariance to test against
         P = np.eye(J) - solve_triangular(L, U @ (U.T @ L))  # I - L^-1 U U' L
         C = (P @ V @ P.T)[np.ix_(keep, keep)]
