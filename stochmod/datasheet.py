@@ -33,7 +33,6 @@ from typing import Any
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.interpolate import CubicSpline
 
 from stochmod.errors import EstimationError, InputError
 from stochmod.fit.gmwm import GMWMResult, ParameterEstimate
@@ -325,6 +324,8 @@ def model_allan_minimum(fit: GMWMResult, points_per_octave: int = 16
     av_ext = 2.0 * fit.model.wv(J + extra)
     if not np.all(np.isfinite(av_ext) & (av_ext > 0)):
         tau_ext, av_ext = tau, av  # the theory beyond the fitted range is unusable: fitted range only
+    from scipy.interpolate import CubicSpline  # on first use: not on every command's start
+
     spline = CubicSpline(np.log(tau_ext), np.log(av_ext))
     grid = np.linspace(np.log(tau[0]), np.log(tau[-1]), (J - 1) * points_per_octave + 1)
     values = spline(grid)
