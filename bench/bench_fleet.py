@@ -6,8 +6,9 @@ file its own seed). Every run is the command a user types, in a fresh process (i
 and the cluster's start-up included): ``stochmod calibrate FILE ... --candidates GM+WN
 2*GM+WN WN+RW --no-plots`` (three candidates per axis, to keep the run practical), serially
 (no ``--workers``: one file after the other in one process, each file's fits in its own
-thread), with ``--workers N`` (one dask task per file) and with ``--workers 1`` (the same
-fleet machinery on one worker). The runs are made in the order parallel, serial, one-worker
+thread), with ``--workers N`` and with ``--workers 1`` (the same
+fleet machinery on one worker; a unit's read, each column's selection and its outputs are
+tasks of their own, :class:`stochmod.fleet.UnitSteps`). The runs are made in the order parallel, serial, one-worker
 (and back again, and so on, with ``--rounds N``, so that a drift of the machine's load hits
 all alike); the best of each kind is kept, each round's own ratios are printed beside the
 ratios of the bests, and the runs' results are checked to be identical.
@@ -82,7 +83,7 @@ def _run(files: list[Path], out: Path, extra: list[str], command: str | None = N
     if done.returncode != 0:
         raise SystemExit(f"calibrate failed with code {done.returncode}:\n{done.stderr}")
     with open(out / "fleet_tasks.csv") as fh:
-        tasks = [{k: v if k in ("unit_name", "host") else float(v) for k, v in r.items()}
+        tasks = [{k: v if k in ("unit_name", "part", "host") else float(v) for k, v in r.items()}
                  for r in csv.DictReader(fh)]
     for t in tasks:  # s from the command's start
         t["start"], t["end"] = t["start"] - epoch, t["end"] - epoch
@@ -106,14 +107,15 @@ def _stage_table(tasks: list[dict]) -> list[str]:
 def _worker_table(run: dict) -> list[str]:
     """Per worker process: when the process started (for a local worker: its fork or spawn,
     the end of the command's own start), start-up (the command's start to its first task:
-    imports, the cluster's start, the worker's own start), tasks, busy time, idle gaps between its tasks, the tail (its last
-    task's end to the run's end), and its first task's wall time (against s/file, the mean:
-    what the first task still loads)."""
+    imports, the cluster's start, the worker's own start), tasks (a unit's read, its columns'
+    selections and its outputs are tasks of their own; older checkouts: one per unit), busy
+    time, idle gaps between its tasks, the tail (its last task's end to the run's end), its
+    first task's wall time (what the first task still loads) and minor page faults per task."""
     by_pid: dict[float, list[dict]] = defaultdict(list)
     for t in run["tasks"]:
         by_pid[t["pid"]].append(t)
     lines = [f"  {'worker':>8s} {'tasks':>5s} {'process':>7s} {'start-up':>8s} {'busy':>7s} {'gaps':>6s} "
-             f"{'tail':>6s} {'CPU':>7s} {'s/file':>6s} {'first':>6s} {'faults/file':>11s}"]
+             f"{'tail':>6s} {'CPU':>7s} {'first':>6s} {'faults/task':>11s}"]
     for pid, ts in sorted(by_pid.items()):
         ts.sort(key=lambda t: t["start"])
         gaps = sum(b["start"] - a["end"] for a, b in zip(ts, ts[1:]))
@@ -121,8 +123,7 @@ def _worker_table(run: dict) -> list[str]:
         lines.append(f"  {int(pid):8d} {len(ts):5d} {ts[0]['process_start']:7.2f} {ts[0]['start']:8.1f} "
                      f"{busy:7.1f} {gaps:6.2f} "
                      f"{run['wall'] - ts[-1]['end']:6.1f} {sum(t['cpu'] for t in ts):7.1f} "
-                     f"{busy / len(ts):6.2f} {ts[0]['wall']:6.2f} "
-                     f"{np.mean([t['page_faults'] for t in ts]):11.0f}")
+                     f"{ts[0]['wall']:6.2f} {np.mean([t['page_faults'] for t in ts]):11.0f}")
     return lines
 
 
@@ -207,8 +208,12 @@ def main() -> None:
         print(f"  the serial run's helper threads took {helper:.1f} s: on an idle machine it takes at "
               f"least {ser_cpu - helper:.1f} s, the same estimate against that is "
               f"{(ser_cpu - helper) / busiest:.2f}")
-    print(f"results shipped back: {sum(t['result_bytes'] for t in par['tasks']) / 1e3:.0f} kB "
-          f"in all; threads per worker process {sorted({int(t['threads']) for t in par['tasks']})}")
+    reports = [t for t in par["tasks"] if t.get("part", "finish") == "finish"]
+    handed = sum(t["result_bytes"] for t in par["tasks"]) - sum(t["result_bytes"] for t in reports)
+    print(f"reports shipped back to the client: {sum(t['result_bytes'] for t in reports) / 1e3:.0f} kB "
+          f"in all (handed from task to task, moved between workers only when a task runs "
+          f"elsewhere: {handed / 1e6:.0f} MB); threads per worker process "
+          f"{sorted({int(t['threads']) for t in par['tasks']})}")
     for kind in best:
         print(f"\n{kind} run (best): stages summed over its tasks, timed inside the workers")
         print("\n".join(_stage_table(best[kind]["tasks"])))

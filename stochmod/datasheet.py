@@ -47,6 +47,7 @@ __all__ = [
     "DatasheetRow",
     "Datasheet",
     "datasheet",
+    "datasheet_reading",
     "sensor_unit",
     "signal_unit",
     "model_allan_minimum",
@@ -392,6 +393,22 @@ def _rows(fit: GMWMResult, params: tuple[DatasheetParameter, ...], unit: str,
     return rows
 
 
+def datasheet_reading(x: ArrayLike, freq: float, sensor: str) -> AllanReading:
+    """The Allan reading of an axis's data that :func:`datasheet` sets beside the model (the
+    data's part of a datasheet, which a fleet computes in the axis's own task).
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        The axis's data, in SI (rad/s or m/s^2).
+    freq : float
+        Sampling frequency, Hz.
+    sensor : {"gyro", "accel"} or unit
+        What the axis measures.
+    """
+    return allan_reading(x, freq, unit=sensor_unit(sensor))
+
+
 def datasheet(fit: GMWMResult, sensor: str, *, column: str = "", x: ArrayLike | None = None,
               reading: AllanReading | None = None) -> Datasheet:
     """A fitted axis in SI and datasheet units, beside the Allan reading of its data.
@@ -423,7 +440,7 @@ def datasheet(fit: GMWMResult, sensor: str, *, column: str = "", x: ArrayLike | 
     if x is not None and reading is not None:
         raise InputError("give the data x or an Allan reading, not both")
     if x is not None:
-        reading = allan_reading(x, float(fit.model.freq), unit=unit)
+        reading = datasheet_reading(x, float(fit.model.freq), unit)
     params = tuple(_parameter(e, unit) for e in _physical(fit))
     rows = _rows(fit, params, unit, reading)
     return Datasheet(column=column, unit=unit, freq=float(fit.model.freq), model=fit.model.name,

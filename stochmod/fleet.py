@@ -2,11 +2,14 @@
 
 ``stochmod calibrate A.npz B.npz ... --workers N`` (a local cluster of N single-threaded
 worker processes) or ``--scheduler tcp://host:8786`` (an existing cluster, any number of
-machines) runs the single-file calibration of every file as one task, writing ``OUT/<file
-stem>/`` each, then the fleet table ``OUT/fleet.csv``.  Without ``--workers`` or
-``--scheduler`` the files are calibrated one after the other.  Each file's selection runs its
-fits in the task's own thread (the task is the unit of parallelism: no process pool inside a
-task, whatever ``--jobs`` says), and every fit is seeded from ``--seed`` and the candidate
+machines) runs the single-file calibration of every file, writing ``OUT/<file stem>/`` each,
+then the fleet table ``OUT/fleet.csv``.  On a cluster a unit is several tasks
+(:class:`UnitSteps`): its read, one selection per column, which any worker may take (a fleet
+of fewer files than workers uses them all; the last unit's columns spread over the workers),
+and its outputs; two units per worker thread are in flight.  Without ``--workers`` or
+``--scheduler`` the files are calibrated one after the other, in the same steps.  A task
+runs its fits in its own thread (the task is the unit of parallelism: no process pool inside
+a task, whatever ``--jobs`` says), and every fit is seeded from ``--seed`` and the candidate
 only, so a fleet run gives exactly the results of a serial run, whatever the cluster.
 
 A task in a worker runs on one core: the local cluster's workers have one thread each, BLAS
@@ -41,7 +44,6 @@ import concurrent.futures
 import contextlib
 import copy
 import csv
-import functools
 import math
 import multiprocessing
 import os
@@ -56,11 +58,11 @@ from typing import Any
 import attrs
 import numpy as np
 
-from stochmod.errors import InputError
+from stochmod.errors import InputError, StochmodError
 from stochmod.reporting import format_table
 
 __all__ = ["OUTLIER_Z", "MIN_UNITS", "FleetRow", "fleet_rows", "robust_z", "write_fleet_csv",
-           "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "CalibrateOne",
+           "run_fleet", "calibrate_files", "unit_folders", "SerialExecutor", "UnitSteps",
            "TaskTiming", "STAGES", "single_threaded", "write_task_csv", "start_process_server"]
 
 #: |robust z| above which a unit is an outlier on a quantity.
@@ -68,12 +70,13 @@ OUTLIER_Z = 3.5
 #: Fewest units for which outliers are flagged.
 MIN_UNITS = 4
 _MAD_TO_SD = 1.4826
-#: Stages of a unit's calibration timed inside its task: the function that
+#: Stages of a unit's calibration timed inside its tasks: the function that
 #: :class:`SerialExecutor` runs (stochmod.fit.selection's work items, calibrate's figures),
-#: or a stage opened with :meth:`SerialExecutor.stage`; the rest of the task is ``other``
-#: (the report: datasheet and Allan reading, JSON, exports).
+#: or a stage opened with :meth:`SerialExecutor.stage` (the file's read, a column's Allan
+#: reading for the datasheet); the rest of a task is ``other`` (the ranking; the report:
+#: datasheet, JSON, exports).
 STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": "fits",
-          "_figure": "figures"}
+          "allan": "allan", "_figure": "figures"}
 #: dask configuration of the local cluster's workers: no sampling profiler (a thread that
 #: walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
 #: module docstring).
@@ -157,9 +160,25 @@ def unit_folders(files: Sequence[str], out: Path) -> dict[str, Path]:
     return folders
 
 
-#: The single-file calibration of one unit: its argument namespace and the executor of its
-#: work items (a :class:`SerialExecutor`: the file is the parallel unit) in, its report out.
-CalibrateOne = Callable[[argparse.Namespace, concurrent.futures.Executor], dict[str, Any]]
+@attrs.frozen
+class UnitSteps:
+    """A unit's calibration in the three steps that a fleet runs as tasks of their own.
+
+    ``read(args, executor)`` reads the unit's file into its input (which stays in the worker
+    that read it: the selections take it from there); ``columns(unit)`` names its columns;
+    ``select(args, unit, k, executor)`` selects the model of column `k` alone (the columns of
+    a unit are independent: the same result as in a selection of all of them); ``finish(args,
+    unit, results, executor)`` writes the unit's outputs from the columns' results, in their
+    order, and returns its report. Every step is a module-level function (dask ships it by
+    reference) whose `executor` runs its work items in the calling thread
+    (:class:`SerialExecutor`, timing them).
+    """
+
+    read: Callable[[argparse.Namespace, concurrent.futures.Executor], Any]
+    columns: Callable[[Any], list[str]]
+    select: Callable[[argparse.Namespace, Any, int, concurrent.futures.Executor], Any]
+    finish: Callable[[argparse.Namespace, Any, list[Any], concurrent.futures.Executor],
+                     dict[str, Any]]
 
 
 class SerialExecutor(concurrent.futures.Executor):
@@ -202,19 +221,23 @@ class SerialExecutor(concurrent.futures.Executor):
 
 @attrs.frozen
 class TaskTiming:
-    """Where one unit's task spent its time, measured inside the process that ran it.
+    """Where one task of a unit's calibration spent its time, measured inside the process that
+    ran it.
 
+    `part` names the step (:class:`UnitSteps`): ``read``, ``select <column>`` or ``finish``.
     Times in s; `start` and `end` are wall-clock times (s since the epoch) of that machine.
     `cpu` is the process's CPU time during the task (every thread: the FFT helpers, and in a
     dask worker its own threads), `thread_cpu` the task thread's alone. `stages` maps a
     stage of :data:`STAGES` (and ``other``, the rest) to its (wall, cpu). `page_faults`
     counts the process's minor faults during the task (fresh memory pages), `threads` its
-    OS threads at the end, `result_bytes` the pickled report returned to the client,
-    `process_start` the wall-clock time at which that process started (a worker forked by the
-    local cluster's process server: its fork; NaN without psutil).
+    OS threads at the end, `result_bytes` the pickled size of what the task hands on (to the
+    next step, or the report to the client), `process_start` the wall-clock time at which
+    that process started (a worker forked by the local cluster's process server: its fork;
+    NaN without psutil).
     """
 
     unit_name: str
+    part: str
     host: str
     pid: int
     start: float
@@ -277,28 +300,124 @@ def single_threaded() -> Iterator[None]:
         yield
 
 
-def _run_unit(calibrate_one: CalibrateOne, args: argparse.Namespace, in_worker: bool
-              ) -> tuple[dict[str, Any], TaskTiming]:
-    """One fleet task: the unit's calibration with its stages timed (module level: dask ships
-    it by reference); in a worker on one thread (:func:`single_threaded`)."""
+def _pickled_bytes(value: Any) -> int:
+    """Size of `value` pickled (protocol 5: its arrays' buffers counted, not copied)."""
+    buffers: list[pickle.PickleBuffer] = []
+    head = pickle.dumps(value, protocol=5, buffer_callback=buffers.append)
+    return len(head) + sum(b.raw().nbytes for b in buffers)
+
+
+def _run_step(step: Callable[..., Any], unit_name: str, part: str, in_worker: bool,
+              *args: Any) -> tuple[Any, TaskTiming]:
+    """One step of a unit's calibration, ``step(*args, executor)`` (``args[0]``: the unit's
+    options), with its stages timed (module level: dask ships it by reference); in a worker on
+    one thread (:func:`single_threaded`). Returns the step's value and the task's timing; a
+    stochmod error gets the unit's file name in front of its message."""
     stages: dict[str, list[float]] = {}
     pool = SerialExecutor(stages)
     start, wall, cpu = time.time(), time.perf_counter(), time.process_time()
     thread_cpu, faults = time.thread_time(), _minor_faults()
-    with single_threaded() if in_worker else contextlib.nullcontext():
-        report = calibrate_one(args, pool)
+    try:
+        with single_threaded() if in_worker else contextlib.nullcontext():
+            value = step(*args, pool)
+    except StochmodError as exc:  # a fleet's error names its file
+        raise type(exc)(f"{args[0].file}: {exc}") from exc
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     stages["other"] = [wall - sum(w for w, _ in stages.values()),
                        cpu - sum(c for _, c in stages.values())]
-    timing = TaskTiming(Path(args.out).name, socket.gethostname(), os.getpid(), start, time.time(),
+    timing = TaskTiming(unit_name, part, socket.gethostname(), os.getpid(), start, time.time(),
                         wall, cpu, time.thread_time() - thread_cpu, _minor_faults() - faults,
-                        _os_threads(), len(pickle.dumps(report)), _process_start(),
+                        _os_threads(), _pickled_bytes(value), _process_start(),
                         {k: (float(w), float(c)) for k, (w, c) in stages.items()})
-    return report, timing
+    return value, timing
+
+
+def _select_step(steps: UnitSteps, unit_name: str, column: str, in_worker: bool,
+                 args: argparse.Namespace, read: tuple[Any, TaskTiming], k: int
+                 ) -> tuple[Any, TaskTiming]:
+    """The selection of column `k` (named `column`) of the unit that `read` holds."""
+    return _run_step(steps.select, unit_name, f"select {column}", in_worker, args, read[0], k)
+
+
+def _finish_step(steps: UnitSteps, unit_name: str, in_worker: bool, args: argparse.Namespace,
+                 read: tuple[Any, TaskTiming], *selected: tuple[Any, TaskTiming]
+                 ) -> tuple[dict[str, Any], list[TaskTiming]]:
+    """The unit's outputs from its columns' selections; its report and every task's timing."""
+    report, timing = _run_step(steps.finish, unit_name, "finish", in_worker, args, read[0],
+                               [result for result, _ in selected])
+    return report, [read[1], *(t for _, t in selected), timing]
+
+
+def _column_names(steps: UnitSteps, read: tuple[Any, TaskTiming]) -> list[str]:
+    return list(steps.columns(read[0]))
+
+
+def _calibrate_here(steps: UnitSteps, args: argparse.Namespace
+                    ) -> tuple[dict[str, Any], list[TaskTiming]]:
+    """A unit's steps one after the other in this process (the serial fleet)."""
+    name = Path(args.out).name
+    read = _run_step(steps.read, name, "read", False, args)
+    selected = [_select_step(steps, name, column, False, args, read, k)
+                for k, column in enumerate(_column_names(steps, read))]
+    return _finish_step(steps, name, False, args, read, *selected)
+
+
+#: dask priorities of a unit's tasks (higher first): a unit's outputs before another's
+#: selections, selections before the next file's read, so that the units in flight finish
+#: first and free their memory; among equals, the first submitted first.
+_PRIORITY = {"read": 0, "columns": 1, "select": 2, "finish": 3}
+#: Units in flight per worker thread (read, selecting or finishing) on a cluster: enough
+#: that a worker always finds a task while the client submits the next unit's selections.
+_UNITS_PER_THREAD = 2
+
+
+def _calibrate_on(client: Any, tasks: Sequence[argparse.Namespace], steps: UnitSteps
+                  ) -> list[tuple[dict[str, Any], list[TaskTiming]]]:
+    """Every unit on a dask cluster, one task per step: a unit's read, then a selection task
+    per column (which any worker may take: a fleet of fewer files than workers uses them all,
+    and the last unit's columns spread over the workers), then its outputs. At most
+    :data:`_UNITS_PER_THREAD` units per worker thread are in flight."""
+    from distributed import as_completed
+
+    threads = max(1, sum(client.nthreads().values()))
+    names = [Path(t.out).name for t in tasks]
+    results: dict[int, tuple[dict[str, Any], list[TaskTiming]]] = {}
+    waiting = as_completed()
+    role: dict[Any, tuple[str, int, Any]] = {}
+    pending = iter(range(len(tasks)))
+
+    def start_next() -> None:
+        i = next(pending, None)
+        if i is None:
+            return
+        read = client.submit(_run_step, steps.read, names[i], "read", True, tasks[i],
+                             pure=False, priority=_PRIORITY["read"])
+        columns = client.submit(_column_names, steps, read, pure=False,
+                                priority=_PRIORITY["columns"])
+        role[columns] = ("columns", i, read)
+        waiting.add(columns)
+
+    for _ in range(threads * _UNITS_PER_THREAD):
+        start_next()
+    for future in waiting:
+        kind, i, read = role.pop(future)
+        if kind == "columns":
+            selected = [client.submit(_select_step, steps, names[i], column, True, tasks[i], read, k,
+                                      pure=False, priority=_PRIORITY["select"])
+                        for k, column in enumerate(future.result())]
+            finish = client.submit(_finish_step, steps, names[i], True, tasks[i], read, *selected,
+                                   pure=False, priority=_PRIORITY["finish"])
+            role[finish] = ("finish", i, None)
+            waiting.add(finish)
+        else:
+            results[i] = future.result()
+            start_next()
+        future.release()
+    return [results[i] for i in range(len(tasks))]
 
 
 def write_task_csv(path: Path, timings: Sequence[TaskTiming]) -> Path:
-    """Write the tasks' timings (one line per unit; see :meth:`TaskTiming.row`)."""
+    """Write the tasks' timings (one line per task; see :meth:`TaskTiming.row`)."""
     rows = [t.row() for t in timings]
     with open(path, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["unit_name"])
@@ -389,24 +508,23 @@ def _environ(name: str, value: str | None) -> Iterator[None]:
             os.environ[name] = before
 
 
-def calibrate_files(tasks: Sequence[argparse.Namespace], calibrate_one: CalibrateOne,
+def calibrate_files(tasks: Sequence[argparse.Namespace], steps: UnitSteps,
                     workers: int | None = None, scheduler: str | None = None
                     ) -> tuple[list[dict[str, Any]], list[TaskTiming]]:
-    """Run `calibrate_one` (the single-file calibration, a module-level function so that dask
-    can ship it) on each task: serially, or one dask task per file; the reports and the
-    tasks' timings."""
+    """Calibrate each task's unit through `steps`: serially in this process, or on a dask
+    cluster (a local one of `workers` processes, or the one at `scheduler`), each step a task;
+    the reports (in the tasks' order) and every task's timing."""
     if workers is None and scheduler is None:
-        done = [_run_unit(calibrate_one, t, False) for t in tasks]
+        done = [_calibrate_here(steps, t) for t in tasks]
     else:
         with _client(workers, scheduler) as client:
-            task = functools.partial(_run_unit, calibrate_one, in_worker=True)
-            done = client.gather(client.map(task, list(tasks), pure=False))
-    return [report for report, _ in done], [timing for _, timing in done]
+            done = _calibrate_on(client, tasks, steps)
+    return [report for report, _ in done], [t for _, timings in done for t in timings]
 
 
-def run_fleet(args: argparse.Namespace, calibrate_one: CalibrateOne) -> int:
-    """``stochmod calibrate FILE FILE ...``: every file through `calibrate_one` (the CLI's
-    quiet single-file calibration, returning its report dict), then ``OUT/fleet.csv``."""
+def run_fleet(args: argparse.Namespace, steps: UnitSteps) -> int:
+    """``stochmod calibrate FILE FILE ...``: every file through `steps` (the CLI's quiet
+    single-file calibration, in steps), then ``OUT/fleet.csv``."""
     files = [args.file, *args.more_files]
     if args.file is None:
         raise InputError("a fleet run needs FILE arguments (the bundled example is one unit)")
@@ -421,7 +539,7 @@ def run_fleet(args: argparse.Namespace, calibrate_one: CalibrateOne) -> int:
         task = copy.copy(args)
         task.file, task.more_files, task.out = f, [], str(folder)
         tasks.append(task)
-    reports, timings = calibrate_files(tasks, calibrate_one, args.workers, args.scheduler)
+    reports, timings = calibrate_files(tasks, steps, args.workers, args.scheduler)
     out.mkdir(parents=True, exist_ok=True)
     rows = fleet_rows(dict(zip(folders, reports)))
     path = write_fleet_csv(out / "fleet.csv", rows)

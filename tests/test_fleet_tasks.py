@@ -174,18 +174,30 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
     capsys.readouterr()
     with open(out / "fleet_tasks.csv") as fh:
         rows = list(csv.DictReader(fh))
-    assert [r["unit_name"] for r in rows] == ["u0", "u1", "u2"]
+    # one task per step: a unit's read, its column's selection, its outputs
+    assert [(r["unit_name"], r["part"]) for r in rows] == [
+        (u, part) for u in ["u0", "u1", "u2"] for part in ["read", "select gyro_x", "finish"]]
     stages = [*dict.fromkeys(STAGES.values()), "other"]
     for r in rows:
         wall = float(r["wall"])
-        # the stages partition the task's wall time (other: the report and its outputs)
+        # the stages partition the task's wall time
         assert sum(float(r[f"{s}_wall"]) for s in stages) == pytest.approx(wall, rel=1e-9)
-        assert float(r["fits_wall"]) > 0 and float(r["wv_wall"]) > 0 and float(r["eq17_wall"]) > 0
-        assert float(r["figures_wall"]) == 0.0  # --no-plots
+        busy = {s for s in stages if float(r[f"{s}_wall"]) > 0}
+        # read: the file (and the checks); select: WV, eq. 17, fits, the Allan reading of the
+        # datasheet (and the rest, other); finish: the report and its outputs (--no-plots)
+        assert busy == {"read": {"read", "other"}, "finish": {"other"},
+                        "select gyro_x": {"wv", "eq17", "fits", "allan", "other"}}[r["part"]]
         assert float(r["start"]) <= float(r["end"]) and float(r["end"]) - float(r["start"]) >= wall * 0.99
-        assert int(r["result_bytes"]) > 1000 and int(r["threads"]) >= 1
+        assert int(r["threads"]) >= 1
         # the process that ran it started before the task; a worker during this command
         assert float(r["process_start"]) <= float(r["start"])
         assert (float(r["process_start"]) > before - 1.0) is bool(workers)
+    by_part = {(r["unit_name"], r["part"]): r for r in rows}
+    for u in ["u0", "u1", "u2"]:
+        # the steps in order; what a step hands on: the 2^12 samples (8 bytes each), a
+        # selection, the report
+        read, sel, fin = (by_part[u, p] for p in ["read", "select gyro_x", "finish"])
+        assert float(read["end"]) <= float(sel["start"]) and float(sel["end"]) <= float(fin["start"])
+        assert int(read["result_bytes"]) > 8 * 2**12 and int(fin["result_bytes"]) > 1000
     pids = {int(r["pid"]) for r in rows}
     assert (os.getpid() in pids) is (not workers)  # serially in this process, else in workers

@@ -99,3 +99,46 @@ def test_fleet_on_a_local_cluster_equals_the_serial_run(tmp_path, capsys):
     assert {r["unit_name"] for r in arw if r["outlier"] == "True"} == {"unit3"}
     serial = (tmp_path / "serial" / "fleet.csv").read_text()
     assert serial == (tmp_path / "dask" / "fleet.csv").read_text()
+
+
+def test_one_file_on_two_workers_equals_the_single_file_command(tmp_path, capsys):
+    """A fleet runs a unit's columns as tasks of their own (stochmod.fleet.UnitSteps): a
+    one-file fleet on two workers gives the single-file command's results, whose selection
+    takes every column at once (in a pool of two processes), and spreads the columns over both
+    workers."""
+    pytest.importorskip("distributed")
+    from stochmod.examples import XSENS_COLUMNS, xsens_mtig
+
+    rec = xsens_mtig(n=2**13, seed=5)
+    path = tmp_path / "imu.npz"
+    np.savez(path, freq=rec.freq, **{c: rec.column(c) for c in XSENS_COLUMNS})
+    common = ["--candidates", "WN", "WN+RW", "GM+WN", "--triad", "--export", "kalibr", "--no-plots"]
+    assert main(["calibrate", str(path), *common, "--out", str(tmp_path / "single")]) == 0
+    assert main(["calibrate", str(path), *common, "--out", str(tmp_path / "fleet"),
+                 "--workers", "2"]) == 0
+    capsys.readouterr()
+    a = json.loads((tmp_path / "single" / "calibration.json").read_text())
+    b = json.loads((tmp_path / "fleet" / "imu" / "calibration.json").read_text())
+    assert sorted(b["columns"]) == sorted(XSENS_COLUMNS)
+    for key in ["columns", "datasheet", "triads", "imu_augmentation"]:
+        assert a[key] == b[key], key
+    assert ((tmp_path / "single" / "kalibr_imu.yaml").read_text()
+            == (tmp_path / "fleet" / "imu" / "kalibr_imu.yaml").read_text())
+    with open(tmp_path / "fleet" / "fleet_tasks.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["part"] for r in rows] == ["read", *(f"select {c}" for c in XSENS_COLUMNS), "finish"]
+    assert len({r["pid"] for r in rows if r["part"].startswith("select")}) == 2
+
+
+@pytest.mark.parametrize("workers", [[], ["--workers", "2"]])
+def test_a_fleet_error_names_its_file(tmp_path, capsys, workers):
+    if workers:
+        pytest.importorskip("distributed")
+    _save(tmp_path / "good.npz", 1e-3, seed=1)
+    np.savez(tmp_path / "flat.npz", gyro_x=np.ones(2**12), freq=FS)  # nothing to model
+    code = main(["calibrate", str(tmp_path / "good.npz"), str(tmp_path / "flat.npz"),
+                 "--candidates", "WN", "--no-plots", "--out", str(tmp_path / "out"), *workers])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 2
+    assert err == (f"stochmod calibrate: error: {tmp_path / 'flat.npz'}: column 'gyro_x' of x is "
+                   "constant: it has no noise to model")

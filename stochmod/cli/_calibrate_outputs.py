@@ -8,6 +8,7 @@ feature: :func:`column_units`, :func:`apply_triad`, :func:`datasheet_section`,
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,7 @@ from stochmod.datasheet import Datasheet, SENSORS, datasheet, signal_unit
 from stochmod.errors import InputError
 from stochmod.exports import EXPORT_FORMATS, write_exports
 from stochmod.fit.selection import SelectionResult
+from stochmod.signal.allan_reading import AllanReading
 
 __all__ = ["add_output_arguments", "column_units", "apply_triad", "datasheet_section",
            "write_exports_for", "write_report_for", "fleet_requested"]
@@ -86,8 +88,13 @@ def apply_triad(results: list[SelectionResult], units: dict[str, str]
 
 
 def datasheet_section(results: list[SelectionResult], data: np.ndarray,
-                      units: dict[str, str]) -> dict[str, Datasheet]:
-    """Datasheet of every column (model beside the Allan reading of its data)."""
+                      units: dict[str, str], readings: Sequence[AllanReading] | None = None
+                      ) -> dict[str, Datasheet]:
+    """Datasheet of every column (model beside the Allan reading of its data; `readings`:
+    those readings made already, in the columns' order)."""
+    if readings is not None:
+        return {sel.column: datasheet(sel.best, units[sel.column], column=sel.column, reading=r)
+                for sel, r in zip(results, readings, strict=True)}
     return {sel.column: datasheet(sel.best, units[sel.column], column=sel.column, x=data[:, k])
             for k, sel in enumerate(results)}
 

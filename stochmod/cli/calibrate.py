@@ -16,21 +16,24 @@ import attrs
 import numpy as np
 
 from stochmod.cli import _calibrate_outputs as extras
-from stochmod.cli._common import (add_input_arguments, load_segments, longest_segment,
-                                  print_json, to_jsonable)
+from stochmod.cli._common import (add_input_arguments, column_replicates, load_segments,
+                                  longest_segment, print_json, to_jsonable)
 from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
+from stochmod.datasheet import datasheet_reading
 from stochmod.errors import EstimationError, InputError
-from stochmod.fleet import SerialExecutor, run_fleet
+from stochmod.fleet import SerialExecutor, UnitSteps, run_fleet
 from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult, select
 from stochmod.io import Recording
 from stochmod.model import augment_axes
 from stochmod.reporting import format_table
+from stochmod.signal.allan_reading import AllanReading
 from stochmod.statespace import StateSpaceBlock
 
-__all__ = ["register", "run", "calibrate_file", "calibrate_unit", "calibration_report",
-           "SIMULATIONS_PER_TASK"]
+__all__ = ["register", "run", "calibrate_file", "calibration_report", "SIMULATIONS_PER_TASK",
+           "UnitInput", "ColumnResult", "UNIT_STEPS", "read_unit", "unit_columns",
+           "select_unit_column", "finish_unit"]
 
 #: Simulated series per task of the figures on a pool (the default 20 a column: two tasks).
 SIMULATIONS_PER_TASK = 10
@@ -297,15 +300,82 @@ def run(args: argparse.Namespace) -> int:
     if args.pooled:
         return _run_pooled(args)
     if extras.fleet_requested(args):
-        return run_fleet(args, calibrate_unit)
+        return run_fleet(args, UNIT_STEPS)
     calibrate_file(args)
     return 0
 
 
-def calibrate_unit(args: argparse.Namespace, executor: SerialExecutor) -> dict[str, Any]:
-    """One unit of a fleet: the quiet single-file calibration with its fits run in the calling
-    worker by `executor` (the file is the parallel unit); its report dict."""
-    return calibrate_file(args, executor=executor, quiet=True)
+@attrs.frozen
+class UnitInput:
+    """A fleet unit's input, as its read task hands it on: the recording's gap-free segments
+    (scaled by ``--scale``), the sampling frequency (Hz) and the filter step ``dt`` (s)."""
+
+    segments: list[Recording]
+    freq: float
+    dt: float
+
+
+def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
+    """A fleet unit's first step: its file read and checked, the data scaled."""
+    with executor.stage("read"):
+        segments, freq, dt = _checked_input(args)
+    _sensor_units(args, segments)  # bad options fail here, not in every column's task
+    selection_options(args)
+    return UnitInput([attrs.evolve(r, data=r.data * args.scale) for r in segments], freq, dt)
+
+
+def unit_columns(unit: UnitInput) -> list[str]:
+    """The columns of a fleet unit, one selection task each."""
+    return list(unit.segments[0].columns)
+
+
+@attrs.frozen
+class ColumnResult:
+    """What a fleet unit's column task hands on: the column's selection and the Allan reading
+    of its data for the datasheet (None when the column's sensor is unknown)."""
+
+    selection: SelectionResult
+    reading: AllanReading | None
+
+
+def select_unit_column(args: argparse.Namespace, unit: UnitInput, k: int,
+                       executor: SerialExecutor) -> ColumnResult:
+    """A fleet unit's column `k` alone: its selection (equal to that column's in a selection
+    of every column: each column's fits are seeded by ``--seed`` and the candidate only) and
+    the Allan reading of its datasheet."""
+    column = unit_columns(unit)[k]
+    result = select(column_replicates(unit.segments, k), unit.freq, names=[column],
+                    executor=executor, **selection_options(args))
+    units = _sensor_units(args, unit.segments)
+    if units is None:
+        return ColumnResult(result, None)
+    with executor.stage("allan"):
+        reading = datasheet_reading(longest_segment(unit.segments).data[:, k], unit.freq,
+                                    units[column])
+    return ColumnResult(result, reading)
+
+
+def finish_unit(args: argparse.Namespace, unit: UnitInput, columns: list[ColumnResult],
+                executor: SerialExecutor) -> dict[str, Any]:
+    """A fleet unit's last step: its outputs from its columns' tasks; its report."""
+    return _outputs(args, unit.segments, unit.freq, unit.dt, [c.selection for c in columns],
+                    executor, quiet=True, readings=[c.reading for c in columns])
+
+
+#: The single-file calibration as a fleet runs it (:func:`stochmod.fleet.run_fleet`).
+UNIT_STEPS = UnitSteps(read_unit, unit_columns, select_unit_column, finish_unit)
+
+
+def _checked_input(args: argparse.Namespace) -> tuple[list[Recording], float, float]:
+    """The recording's gap-free segments, its frequency and the filter step, with the
+    options checked."""
+    segments, freq = _input(args)
+    if not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    dt = 1.0 / freq if args.dt is None else args.dt
+    if not dt > 0:
+        raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    return segments, freq, dt
 
 
 def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool = False
@@ -314,39 +384,43 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
     `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
     worker processes)."""
-    with executor.stage("read") if isinstance(executor, SerialExecutor) else contextlib.nullcontext():
-        segments, freq = _input(args)
-    if not args.scale > 0:
-        raise InputError(f"--scale must be positive, got {args.scale}")
-    dt = 1.0 / freq if args.dt is None else args.dt
-    if not dt > 0:
-        raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    segments, freq, dt = _checked_input(args)
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
+    segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]  # once
+    _sensor_units(args, segments)  # before the selection
     with _pool(executor, jobs) as pool:
-        return _calibrate(args, segments, freq, dt, pool, quiet)
+        results = select_columns(segments, freq, selection_options(args), pool)
+        return _outputs(args, segments, freq, dt, results, pool, quiet)
 
 
-def _calibrate(args: argparse.Namespace, segments: list[Recording], freq: float, dt: float,
-               pool: Any, quiet: bool) -> dict[str, Any]:
-    """:func:`calibrate_file` once its input is read (the recording's gap-free `segments`),
-    with `pool` running the selection's fits and the figures."""
+def _sensor_units(args: argparse.Namespace, segments: list[Recording]) -> dict[str, str] | None:
+    """The columns' sensor units (None when unknown and not needed; an error when
+    ``--triad``, ``--export`` or ``--report`` needs them)."""
+    return extras.column_units(list(segments[0].columns), args,
+                               required=bool(args.triad or args.export or args.report))
+
+
+def _outputs(args: argparse.Namespace, segments: list[Recording], freq: float, dt: float,
+             results: list[SelectionResult], pool: Any, quiet: bool,
+             readings: list[AllanReading | None] | None = None) -> dict[str, Any]:
+    """:func:`calibrate_file` once the (scaled) recording's gap-free `segments` are selected:
+    the report, the outputs and the printed tables, with `pool` running the figures
+    (`readings`: the columns' Allan readings for the datasheet, when made already)."""
     # with --split-gaps the fits pool all segments; the Allan reading and the validation bands
     # of the datasheet and report use the longest one
-    segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]  # once
     rec = longest_segment(segments)
     data = rec.data
-    sensor_units = extras.column_units(list(rec.columns), args,
-                                       required=bool(args.triad or args.export or args.report))
-    results = select_columns(segments, freq, selection_options(args), pool)
+    sensor_units = _sensor_units(args, segments)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)
     triads: list[Any] = []
     if args.triad:
         results, triads = extras.apply_triad(results, sensor_units)
-    sheets = {} if sensor_units is None else extras.datasheet_section(results, data, sensor_units)
+    sheets = {} if sensor_units is None else extras.datasheet_section(results, data, sensor_units,
+                                                                      readings)
     report = calibration_report(results, rec, freq, dt, args.scale)
     if len(segments) > 1:
         report["n"] = sum(int(r.data.shape[0]) for r in segments)
