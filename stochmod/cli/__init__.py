@@ -5,13 +5,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from stochmod.errors import StochmodError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "script", "build_parser"]
 
 
 def _subcommand_modules() -> list[str]:
@@ -70,6 +72,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (StochmodError, ImportError, OSError) as exc:
         print(f"stochmod {args.command}: error: {exc}", file=sys.stderr)
         return 2
+
+
+def script() -> NoReturn:
+    """The ``stochmod`` console script: :func:`main` on the command line, then the process
+    ends with its exit code once stdout and stderr are flushed, without the interpreter's
+    teardown (freeing every object of numba, scipy, dask ...: 0.3-0.9 s after each command,
+    measured; mypy's ``hard_exit`` does the same). Every file a command writes is closed
+    before it returns, its process pools and clusters are shut down, and an exception takes
+    the normal way out."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover
