@@ -15,7 +15,7 @@ _SCRIPT = ("import atexit, sys\n"
 
 
 def _script(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", _SCRIPT, *argv], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-c", _SCRIPT, *argv], check=False, capture_output=True, text=True,
                           timeout=300)
 
 
