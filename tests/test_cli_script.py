@@ -15,8 +15,8 @@ _SCRIPT = ("import atexit, sys\n"
 
 
 def _script(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", _SCRIPT, *argv], check=False, capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run([sys.executable, "-c", _SCRIPT, *argv], check=False,
+                          capture_output=True, text=True, timeout=300)
 
 
 def test_script_prints_what_main_prints_and_skips_the_teardown(capsys):
