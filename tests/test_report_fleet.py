@@ -142,3 +142,18 @@ def test_a_fleet_error_names_its_file(tmp_path, capsys, workers):
     assert code == 2
     assert err == (f"stochmod calibrate: error: {tmp_path / 'flat.npz'}: column 'gyro_x' of x is "
                    "constant: it has no noise to model")
+
+
+def test_dask_weighs_a_unit_by_its_samples(tmp_path):
+    pytest.importorskip("distributed")
+    from dask.sizeof import sizeof
+
+    from stochmod.cli import _parser_for
+    from stochmod.cli.calibrate import read_unit
+    from stochmod.fleet import SerialExecutor
+
+    _save(tmp_path / "u.npz", 1e-3, seed=3, n=2**14)
+    argv = ["calibrate", str(tmp_path / "u.npz")]
+    unit = read_unit(_parser_for(argv).parse_args(argv), SerialExecutor())
+    samples = 8 * 2**14 * (2 if unit.segments[0].time is not None else 1)
+    assert samples <= sizeof(unit) < samples + 1000

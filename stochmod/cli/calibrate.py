@@ -314,6 +314,12 @@ class UnitInput:
     freq: float
     dt: float
 
+    def __sizeof__(self) -> int:
+        """Bytes of the samples and time stamps: what dask weighs when it considers moving the
+        unit to another worker (its ``sizeof`` of an object it does not know)."""
+        return object.__sizeof__(self) + sum(
+            r.data.nbytes + (0 if r.time is None else r.time.nbytes) for r in self.segments)
+
 
 def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
     """A fleet unit's first step: its file read and checked, the data scaled."""
