@@ -362,9 +362,9 @@ def _calibrate_here(steps: UnitSteps, args: argparse.Namespace
     return _finish_step(steps, name, False, args, read, *selected)
 
 
-#: dask priorities of a unit's tasks (higher first): a unit's outputs before another's
-#: selections, selections before the next file's read, so that the units in flight finish
-#: first and free their memory; among equals, the first submitted first.
+#: dask priorities of a unit's tasks (higher first): a worker runs a unit's outputs before
+#: selections, and selections before the next file's read, so that the units in flight
+#: finish and free their memory before more are read.
 _PRIORITY = {"read": 0, "columns": 1, "select": 2, "finish": 3}
 #: Units in flight per worker thread (read, selecting or finishing) on a cluster: enough
 #: that a worker always finds a task while the client submits the next unit's selections.
