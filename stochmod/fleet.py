@@ -3,11 +3,12 @@
 ``stochmod calibrate A.npz B.npz ... --workers N`` (a local cluster of N single-threaded
 worker processes) or ``--scheduler tcp://host:8786`` (an existing cluster, any number of
 machines) runs the single-file calibration of every file, writing ``OUT/<file stem>/`` each,
-then the fleet table ``OUT/fleet.csv``.  On a cluster a unit is several tasks
-(:class:`UnitSteps`): its read, one selection per column, which any worker may take (a fleet
-of fewer files than workers uses them all; the last unit's columns spread over the workers),
-and its outputs; two units per worker thread are in flight.  Without ``--workers`` or
-``--scheduler`` the files are calibrated one after the other, in the same steps.  A task
+then the fleet table ``OUT/fleet.csv``.  On a cluster a unit is one task, except the last
+units, as many as the cluster has threads, each of which runs as several (:class:`UnitSteps`):
+its read, one selection per column, which any worker may take, and its outputs, so that the
+end of the run (and a fleet of fewer files than workers) keeps every worker busy; two units
+per worker thread are in flight.  Without ``--workers`` or ``--scheduler`` the files are
+calibrated one after the other.  A task
 runs its fits in its own thread (the task is the unit of parallelism: no process pool inside
 a task, whatever ``--jobs`` says), and every fit is seeded from ``--seed`` and the candidate
 only, so a fleet run gives exactly the results of a serial run, whatever the cluster.
@@ -162,18 +163,20 @@ def unit_folders(files: Sequence[str], out: Path) -> dict[str, Path]:
 
 @attrs.frozen
 class UnitSteps:
-    """A unit's calibration in the three steps that a fleet runs as tasks of their own.
+    """A unit's calibration, whole or in the steps that a fleet runs as tasks of their own.
 
-    ``read(args, executor)`` reads the unit's file into its input (which stays in the worker
-    that read it: the selections take it from there); ``columns(unit)`` names its columns;
-    ``select(args, unit, k, executor)`` selects the model of column `k` alone (the columns of
-    a unit are independent: the same result as in a selection of all of them); ``finish(args,
-    unit, results, executor)`` writes the unit's outputs from the columns' results, in their
-    order, and returns its report. Every step is a module-level function (dask ships it by
-    reference) whose `executor` runs its work items in the calling thread
+    ``whole(args, executor)`` calibrates the unit in one call and returns its report.
+    The steps: ``read(args, executor)`` reads the unit's file into its input (which stays in
+    the worker that read it: the selections take it from there); ``columns(unit)`` names its
+    columns; ``select(args, unit, k, executor)`` selects the model of column `k` alone (the
+    columns of a unit are independent: the same result as in a selection of all of them);
+    ``finish(args, unit, results, executor)`` writes the unit's outputs from the columns'
+    results, in their order, and returns its report. Every function is a module-level one
+    (dask ships it by reference) whose `executor` runs its work items in the calling thread
     (:class:`SerialExecutor`, timing them).
     """
 
+    whole: Callable[[argparse.Namespace, concurrent.futures.Executor], dict[str, Any]]
     read: Callable[[argparse.Namespace, concurrent.futures.Executor], Any]
     columns: Callable[[Any], list[str]]
     select: Callable[[argparse.Namespace, Any, int, concurrent.futures.Executor], Any]
@@ -224,7 +227,8 @@ class TaskTiming:
     """Where one task of a unit's calibration spent its time, measured inside the process that
     ran it.
 
-    `part` names the step (:class:`UnitSteps`): ``read``, ``select <column>`` or ``finish``.
+    `part` names the task (:class:`UnitSteps`): ``unit`` (the whole unit), or a step:
+    ``read``, ``select <column>`` or ``finish``.
     Times in s; `start` and `end` are wall-clock times (s since the epoch) of that machine.
     `cpu` is the process's CPU time during the task (every thread: the FFT helpers, and in a
     dask worker its own threads), `thread_cpu` the task thread's alone. `stages` maps a
@@ -352,14 +356,11 @@ def _column_names(steps: UnitSteps, read: tuple[Any, TaskTiming]) -> list[str]:
     return list(steps.columns(read[0]))
 
 
-def _calibrate_here(steps: UnitSteps, args: argparse.Namespace
-                    ) -> tuple[dict[str, Any], list[TaskTiming]]:
-    """A unit's steps one after the other in this process (the serial fleet)."""
-    name = Path(args.out).name
-    read = _run_step(steps.read, name, "read", False, args)
-    selected = [_select_step(steps, name, column, False, args, read, k)
-                for k, column in enumerate(_column_names(steps, read))]
-    return _finish_step(steps, name, False, args, read, *selected)
+def _whole_step(steps: UnitSteps, unit_name: str, in_worker: bool, args: argparse.Namespace
+                ) -> tuple[dict[str, Any], list[TaskTiming]]:
+    """The unit calibrated in one task; its report and the task's timing."""
+    report, timing = _run_step(steps.whole, unit_name, "unit", in_worker, args)
+    return report, [timing]
 
 
 #: dask priorities of a unit's tasks (higher first): a worker runs a unit's outputs before
@@ -373,13 +374,17 @@ _UNITS_PER_THREAD = 2
 
 def _calibrate_on(client: Any, tasks: Sequence[argparse.Namespace], steps: UnitSteps
                   ) -> list[tuple[dict[str, Any], list[TaskTiming]]]:
-    """Every unit on a dask cluster, one task per step: a unit's read, then a selection task
-    per column (which any worker may take: a fleet of fewer files than workers uses them all,
-    and the last unit's columns spread over the workers), then its outputs. At most
-    :data:`_UNITS_PER_THREAD` units per worker thread are in flight."""
+    """Every unit on a dask cluster: one task per unit, except the last units, as many as
+    the cluster has threads, which run as one task per step: their read, a selection task per
+    column (which any worker may take, so that the end of the run, or a fleet of fewer files
+    than workers, keeps every worker busy), then their outputs. A unit in one task costs
+    less: its columns' work shares one heap (column tasks fault 4-5 times the memory pages
+    in a worker; docs/fleet.md, session 8). At most :data:`_UNITS_PER_THREAD` units per worker
+    thread are in flight."""
     from distributed import as_completed
 
     threads = max(1, sum(client.nthreads().values()))
+    first_split = max(0, len(tasks) - threads)
     names = [Path(t.out).name for t in tasks]
     results: dict[int, tuple[dict[str, Any], list[TaskTiming]]] = {}
     waiting = as_completed()
@@ -389,6 +394,12 @@ def _calibrate_on(client: Any, tasks: Sequence[argparse.Namespace], steps: UnitS
     def start_next() -> None:
         i = next(pending, None)
         if i is None:
+            return
+        if i < first_split:
+            unit = client.submit(_whole_step, steps, names[i], True, tasks[i], pure=False,
+                                 priority=_PRIORITY["read"])
+            role[unit] = ("unit", i, None)
+            waiting.add(unit)
             return
         read = client.submit(_run_step, steps.read, names[i], "read", True, tasks[i],
                              pure=False, priority=_PRIORITY["read"])
@@ -511,11 +522,12 @@ def _environ(name: str, value: str | None) -> Iterator[None]:
 def calibrate_files(tasks: Sequence[argparse.Namespace], steps: UnitSteps,
                     workers: int | None = None, scheduler: str | None = None
                     ) -> tuple[list[dict[str, Any]], list[TaskTiming]]:
-    """Calibrate each task's unit through `steps`: serially in this process, or on a dask
-    cluster (a local one of `workers` processes, or the one at `scheduler`), each step a task;
-    the reports (in the tasks' order) and every task's timing."""
+    """Calibrate each task's unit through `steps`: serially in this process (each unit
+    whole), or on a dask cluster (a local one of `workers` processes, or the one at
+    `scheduler`; see :func:`_calibrate_on`); the reports (in the tasks' order) and every
+    task's timing."""
     if workers is None and scheduler is None:
-        done = [_calibrate_here(steps, t) for t in tasks]
+        done = [_whole_step(steps, Path(t.out).name, False, t) for t in tasks]
     else:
         with _client(workers, scheduler) as client:
             done = _calibrate_on(client, tasks, steps)

@@ -174,9 +174,11 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
     capsys.readouterr()
     with open(out / "fleet_tasks.csv") as fh:
         rows = list(csv.DictReader(fh))
-    # one task per step: a unit's read, its column's selection, its outputs
-    assert [(r["unit_name"], r["part"]) for r in rows] == [
-        (u, part) for u in ["u0", "u1", "u2"] for part in ["read", "select gyro_x", "finish"]]
+    # serially a task per unit; on 2 workers the first unit is one task, the last two (as
+    # many as the cluster's threads) a task per step: read, the column's selection, outputs
+    steps = ["read", "select gyro_x", "finish"]
+    parts = [("u0", "unit")] + [(u, p) for u in ["u1", "u2"] for p in (steps if workers else ["unit"])]
+    assert [(r["unit_name"], r["part"]) for r in rows] == parts
     stages = [*dict.fromkeys(STAGES.values()), "other"]
     for r in rows:
         wall = float(r["wall"])
@@ -186,17 +188,19 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         # read: the file (and the checks); select: WV, eq. 17, fits, the Allan reading of the
         # datasheet (and the rest, other); finish: the report and its outputs (--no-plots)
         assert busy == {"read": {"read", "other"}, "finish": {"other"},
-                        "select gyro_x": {"wv", "eq17", "fits", "allan", "other"}}[r["part"]]
+                        "select gyro_x": {"wv", "eq17", "fits", "allan", "other"},
+                        "unit": {"read", "wv", "eq17", "fits", "other"}}[r["part"]]
         assert float(r["start"]) <= float(r["end"]) and float(r["end"]) - float(r["start"]) >= wall * 0.99
         assert int(r["threads"]) >= 1
         # the process that ran it started before the task; a worker during this command
         assert float(r["process_start"]) <= float(r["start"])
         assert (float(r["process_start"]) > before - 1.0) is bool(workers)
     by_part = {(r["unit_name"], r["part"]): r for r in rows}
-    for u in ["u0", "u1", "u2"]:
+    assert int(by_part["u0", "unit"]["result_bytes"]) > 1000  # the report
+    for u in ["u1", "u2"] if workers else []:
         # the steps in order; what a step hands on: the 2^12 samples (8 bytes each), a
         # selection, the report
-        read, sel, fin = (by_part[u, p] for p in ["read", "select gyro_x", "finish"])
+        read, sel, fin = (by_part[u, p] for p in steps)
         assert float(read["end"]) <= float(sel["start"]) and float(sel["end"]) <= float(fin["start"])
         assert int(read["result_bytes"]) > 8 * 2**12 and int(fin["result_bytes"]) > 1000
     pids = {int(r["pid"]) for r in rows}

@@ -32,8 +32,8 @@ from stochmod.signal.allan_reading import AllanReading
 from stochmod.statespace import StateSpaceBlock
 
 __all__ = ["register", "run", "calibrate_file", "calibration_report", "SIMULATIONS_PER_TASK",
-           "UnitInput", "ColumnResult", "UNIT_STEPS", "read_unit", "unit_columns",
-           "select_unit_column", "finish_unit"]
+           "UnitInput", "ColumnResult", "UNIT_STEPS", "calibrate_unit", "read_unit",
+           "unit_columns", "select_unit_column", "finish_unit"]
 
 #: Simulated series per task of the figures on a pool (the default 20 a column: two tasks).
 SIMULATIONS_PER_TASK = 10
@@ -368,8 +368,14 @@ def finish_unit(args: argparse.Namespace, unit: UnitInput, columns: list[ColumnR
                     executor, quiet=True, readings=[c.reading for c in columns])
 
 
+def calibrate_unit(args: argparse.Namespace, executor: SerialExecutor) -> dict[str, Any]:
+    """A fleet unit in one task: the quiet single-file calibration with its work items run in
+    the calling thread by `executor`; its report."""
+    return calibrate_file(args, executor=executor, quiet=True)
+
+
 #: The single-file calibration as a fleet runs it (:func:`stochmod.fleet.run_fleet`).
-UNIT_STEPS = UnitSteps(read_unit, unit_columns, select_unit_column, finish_unit)
+UNIT_STEPS = UnitSteps(calibrate_unit, read_unit, unit_columns, select_unit_column, finish_unit)
 
 
 def _checked_input(args: argparse.Namespace) -> tuple[list[Recording], float, float]:
@@ -390,7 +396,8 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
     `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
     worker processes)."""
-    segments, freq, dt = _checked_input(args)
+    with executor.stage("read") if isinstance(executor, SerialExecutor) else contextlib.nullcontext():
+        segments, freq, dt = _checked_input(args)
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
