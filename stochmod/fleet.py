@@ -364,11 +364,12 @@ def _whole_step(steps: UnitSteps, unit_name: str, in_worker: bool, args: argpars
 
 
 #: dask priorities of a unit's tasks (higher first): a worker runs a unit's outputs before
-#: selections, and selections before the next file's read, so that the units in flight
-#: finish and free their memory before more are read.
+#: selections, and selections before the next file's read (or whole unit), so that the units
+#: in flight finish and free their memory before more are read.
 _PRIORITY = {"read": 0, "columns": 1, "select": 2, "finish": 3}
-#: Units in flight per worker thread (read, selecting or finishing) on a cluster: enough
-#: that a worker always finds a task while the client submits the next unit's selections.
+#: Units in flight per worker thread on a cluster (submitted and not yet finished, whole or
+#: in steps): enough that a worker always finds a task while the client submits the next
+#: unit's selections.
 _UNITS_PER_THREAD = 2
 
 
