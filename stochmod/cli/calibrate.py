@@ -322,7 +322,8 @@ class UnitInput:
 
 
 def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
-    """A fleet unit's first step: its file read and checked, the data scaled."""
+    """A unit's input (a fleet's first step, and :func:`calibrate_file`'s): its file read and
+    the options checked (before any selection), the data scaled."""
     with executor.stage("read"):
         segments, freq, dt = _checked_input(args)
     _sensor_units(args, segments)  # bad options fail here, not in every column's task
@@ -396,16 +397,13 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
     `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
     worker processes)."""
-    with executor.stage("read") if isinstance(executor, SerialExecutor) else contextlib.nullcontext():
-        segments, freq, dt = _checked_input(args)
+    unit = read_unit(args, executor if isinstance(executor, SerialExecutor) else SerialExecutor())
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
-    segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]  # once
-    _sensor_units(args, segments)  # before the selection
     with _pool(executor, jobs) as pool:
-        results = select_columns(segments, freq, selection_options(args), pool)
-        return _outputs(args, segments, freq, dt, results, pool, quiet)
+        results = select_columns(unit.segments, unit.freq, selection_options(args), pool)
+        return _outputs(args, unit.segments, unit.freq, unit.dt, results, pool, quiet)
 
 
 def _sensor_units(args: argparse.Namespace, segments: list[Recording]) -> dict[str, str] | None:
