@@ -42,7 +42,7 @@ PROBES = {
              "x = np.random.default_rng(0).standard_normal(1 << 20)\nwv_covariance(x, workers=1)\n"
              "t = time.process_time()\nfor _ in range(3):\n    wv_covariance(x, workers=1)"),
     "calibrate": ("import tempfile\nfrom pathlib import Path\nimport stochmod._fleet_worker\n"
-                  "from stochmod.cli import _parser_for\nfrom stochmod.cli.calibrate import calibrate_file\n"
+                  "from stochmod.cli import _parser_for\nfrom stochmod.cli.calibrate import calibrate_unit\n"
                   "from stochmod.examples import XSENS_COLUMNS, xsens_mtig\n"
                   "from stochmod.fleet import SerialExecutor, single_threaded\n"
                   "tmp = Path(tempfile.mkdtemp())\nrec = xsens_mtig(n=1 << 20, seed=7)\n"
@@ -51,7 +51,7 @@ PROBES = {
                   "'WN+RW', '--no-plots', '--out', str(tmp / 'out')]\n"
                   "args = _parser_for(argv).parse_args(argv)\n"
                   "t = time.process_time()\nwith single_threaded():\n"
-                  "    calibrate_file(args, executor=SerialExecutor(), quiet=True)"),
+                  "    calibrate_unit(args, SerialExecutor())"),
 }
 _TIMED = ("import os, time\nimport numpy as np\nos.sched_setaffinity(0, {{{core}}})\n"
           "{setup}\nt = time.process_time()\n{body}\nprint(time.process_time() - t)")
