@@ -16,7 +16,8 @@ only, so a fleet run gives exactly the results of a serial run, whatever the clu
 A task in a worker runs on one core: the local cluster's workers have one thread each, BLAS
 pinned to one thread (dask's default worker environment), the eq. 17 FFTs on one thread
 (:func:`single_threaded`, through ``$STOCHMOD_FFT_THREADS``, the default of
-:mod:`stochmod.signal.wv_covariance`), dask's sampling profiler off, and
+:mod:`stochmod.signal.wv_covariance`), dask's sampling profiler off, its periodic checks
+at intervals of a second or so, and
 glibc's default ``malloc`` (dask's ``MALLOC_TRIM_THRESHOLD_`` makes every large array a fresh
 ``mmap``: 3-4 times the page faults of a file; see docs/fleet.md).  The local cluster's workers
 are forks of a process server that imported the task's modules and loaded its compiled loops
@@ -78,12 +79,20 @@ _MAD_TO_SD = 1.4826
 #: datasheet, JSON, exports).
 STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": "fits",
           "allan": "allan", "_figure": "figures"}
-#: dask configuration of the local cluster's workers: no sampling profiler (a thread that
-#: walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
-#: module docstring).
+#: dask configuration of the local cluster: no sampling profiler in the workers (a thread
+#: that walks the task's stack every 10 ms, holding the GIL), glibc's default malloc (see the
+#: module docstring), and the periodic checks of every server (the scheduler, the nannies and
+#: the workers) at human intervals instead of dask's: the event loop's health tick every
+#: second (20 ms), the system monitor's psutil samples (dashboard only; there is none) every
+#: 2 s (500 ms), the memory limits checked every 0.5 s (100 ms). At dask's intervals they took
+#: 0.05-0.07 s of CPU per second of a run in the command's process and as much again in the
+#: workers, on the cores the tasks run on; at these, a third of it (docs/fleet.md, session 9).
 _MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
-                         f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None}
+                         f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None,
+                         "distributed.admin.tick.interval": "1s",
+                         "distributed.admin.system-monitor.interval": "2s",
+                         "distributed.worker.memory.monitor-interval": "500ms"}
 #: What the local cluster's process server imports before it forks the workers (the last one
 #: makes its exit skip the interpreter's teardown: :mod:`stochmod._fleet_server`).
 _SERVER_PRELOAD = ("distributed", "stochmod._fleet_worker", "stochmod._fleet_server")

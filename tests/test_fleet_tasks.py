@@ -80,10 +80,12 @@ def _worker_setup() -> dict:
 
     return {"pid": os.getpid(), "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
             "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
-            "profile": dask.config.get("distributed.worker.profile.enabled")}
+            "profile": dask.config.get("distributed.worker.profile.enabled"),
+            "tick": dask.config.get("distributed.admin.tick.interval"),
+            "memory check": dask.config.get("distributed.worker.memory.monitor-interval")}
 
 
-def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim(monkeypatch):
+def test_local_cluster_workers_run_one_thread_without_profiler_malloc_trim_or_fast_ticks(monkeypatch):
     pytest.importorskip("distributed")
     # as a LocalCluster started earlier with dask's defaults leaves it in this process
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
@@ -91,7 +93,8 @@ def test_local_cluster_workers_run_one_thread_without_profiler_or_malloc_trim(mo
         nthreads = client.nthreads()
         (setup,) = client.run(_worker_setup).values()
     assert list(nthreads.values()) == [1]
-    assert setup == {"pid": setup["pid"], "malloc": None, "blas": "1", "profile": False}
+    assert setup == {"pid": setup["pid"], "malloc": None, "blas": "1", "profile": False,
+                     "tick": "1s", "memory check": "500ms"}
     assert setup["pid"] != os.getpid()
     assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"  # this process's own, restored
 
