@@ -26,7 +26,9 @@ moving sums ``S_m[i] = sum_{k=i}^{i+m-1} y_k``. When every m is a power of two a
 overlapping and unmodified, the moving sums are built level by level in place,
 ``S_2m[i] = S_m[i] + S_m[i+m]``, in cache-sized chunks (no cumulative sum, no temporaries):
 O(N) per tau and 3-4x faster than allantools.oadev (``bench/bench_allan.py``). Other grids
-and kinds take ``S_m`` from one cumulative sum (O(N) per tau, in blocks as well).
+and kinds take ``S_m`` from one cumulative sum (O(N) per tau: for the overlapping Allan and
+Hadamard variances one compiled loop per tau, :mod:`stochmod.signal.allan_jit`, or numpy in
+blocks without numba).
 
 Confidence intervals come from equivalent degrees of freedom (EDF) and the chi-square law
 (NIST SP 1065 eq. 45): ``[edf var / chi2_{1-a/2}(edf), edf var / chi2_{a/2}(edf)]``. The
@@ -50,6 +52,7 @@ from stochmod._fields import array_field
 from stochmod._validation import as_signal, check_alpha, check_freq, check_positive_int
 from stochmod.errors import InputError
 from stochmod.reporting import format_number, format_table
+from stochmod.signal import allan_jit, haar_jit
 
 __all__ = [
     "AllanVariance",
@@ -383,7 +386,15 @@ def _phase_sums(y: np.ndarray, m_all: np.ndarray, d: int, overlapping: bool, mod
 
 
 def _blocked_sum(c: np.ndarray, m: int, d: int) -> float:
-    """Sum of squared d-th lag-m differences of `c`, block by block (the block stays in cache)."""
+    """Sum of squared d-th lag-m differences of `c`: one compiled loop when numba is there
+    (:func:`stochmod.signal.allan_jit.difference_sumsq`), else numpy, block by block."""
+    if haar_jit.AVAILABLE:
+        return float(allan_jit.difference_sumsq(c, m, d))
+    return _blocked_sum_numpy(c, m, d)
+
+
+def _blocked_sum_numpy(c: np.ndarray, m: int, d: int) -> float:
+    """:func:`_blocked_sum` in numpy, block by block (the block stays in cache)."""
     n_t = c.size - d * m
     u = np.empty(_CHUNK)
     v = np.empty(_CHUNK)
