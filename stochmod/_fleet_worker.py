@@ -3,11 +3,12 @@
 registered plugins, and the compiled loops of its first task.
 
 A fresh worker would pay all of it in its first task: the imports (1-3 s), and numba's
-cache loads of the WV sweep, the eq. 17 spectra and the GM's closed form (five loops, about
-0.8 s). Importing this module pays them once, in the server, while the command's own process
-is still importing; every worker forked from the server starts with them. The warm-up is a
-one-column selection of :data:`WARM_N` samples of white noise (its results are discarded),
-large enough to take the four-step path of eq. 17 like a real recording. It runs on this
+cache loads of the WV sweep, the eq. 17 spectra, the GM's closed form and the Allan sums
+(six loops, about 1 s). Importing this module pays them once, in the server, while the
+command's own process is still importing; every worker forked from the server starts with
+them. The warm-up is a one-column selection of :data:`WARM_N` samples of white noise and
+the Allan reading of its datasheet (the results are discarded), large enough to take the
+four-step path of eq. 17 like a real recording. It runs on this
 thread only (:func:`stochmod.fleet.single_threaded`, :class:`stochmod.fleet.SerialExecutor`),
 so that no other thread exists when the server forks.
 """
@@ -17,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 import stochmod.cli.calibrate  # noqa: F401 - the task's function and everything it imports
+from stochmod.datasheet import datasheet_reading
 from stochmod.fit.selection import select
 from stochmod.fleet import SerialExecutor, single_threaded
 from stochmod.registry import processes, readers
@@ -34,6 +36,7 @@ def warm_up() -> None:
     x = np.random.default_rng(0).standard_normal(WARM_N)
     with single_threaded():
         select(x, 100.0, candidates=["GM+WN"], executor=SerialExecutor(), progress=False)
+        datasheet_reading(x, 100.0, "gyro")
 
 
 try:

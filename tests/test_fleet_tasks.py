@@ -102,10 +102,11 @@ def test_local_cluster_workers_run_one_thread_without_profiler_malloc_trim_or_fa
 def _worker_warmth() -> dict:
     import sys
 
-    from stochmod.signal import haar_jit, spectrum_jit
+    from stochmod.signal import allan_jit, haar_jit, spectrum_jit
 
     return {"parent": os.getppid(), "warm_module": "stochmod._fleet_worker" in sys.modules,
-            "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures)],
+            "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures),
+                      len(allan_jit.difference_sumsq.signatures)],
             "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
             "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_")}
 
@@ -123,7 +124,7 @@ def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
     assert len(setups) == 2
     for setup in setups:
         # forked by the server (not this process), which had imported the task's modules and
-        # loaded the WV sweep's and eq. 17's compiled loops before any task ran
+        # loaded the WV sweep's, eq. 17's and the Allan sums' compiled loops before any task ran
         assert setup["parent"] == server != os.getpid()
         assert setup["warm_module"] and min(setup["loops"]) >= 1
         assert setup["blas"] == "1" and setup["malloc"] is None  # the server's environment
