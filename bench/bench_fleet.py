@@ -18,7 +18,9 @@ serial / parallel and one-worker / parallel; and, from ``OUT/fleet_tasks.csv`` (
 stages timed inside its worker, :class:`stochmod.fleet.TaskTiming`), where the parallel
 run's time went: per stage, per worker (start-up, busy, idle gaps, tail) and the CPU-time
 scaling (the tasks' CPU over the run's wall: how many cores the fleet kept busy), which
-says more than the wall ratio on a shared machine.
+says more than the wall ratio on a shared machine; and, per round, the tasks' CPU in the
+parallel run over the one-worker run's (the same tasks: how much slower a core ran while two
+workers ran at once, the pair penalty that bounds the wall ratio at ``2 / penalty``).
 """
 
 from __future__ import annotations
@@ -180,6 +182,13 @@ def main() -> None:
                       for run, par_run in zip(runs[other], runs["parallel"])]
             print(f"  {other} / parallel in each round: "
                   + ", ".join(f"{r:.2f}" for r in ratios) + f" (median {np.median(ratios):.2f})")
+    if "one-worker" in runs:  # the same work on two busy cores against one: what the host gave
+        penalties = [sum(t["cpu"] for t in par_run["tasks"]) / sum(t["cpu"] for t in run["tasks"])
+                     for run, par_run in zip(runs["one-worker"], runs["parallel"])]
+        print("  tasks' CPU, parallel / one-worker, in each round: "
+              + ", ".join(f"{r:.2f}" for r in penalties)
+              + " (the same tasks took this much more CPU while two workers ran at once: the "
+                "machine's pair penalty in that round; bench/fleet_pairs.py measures it alone)")
     print(f"identical results                    {same}")
     ser_cpu = sum(t["cpu"] for t in ser["tasks"])
 
