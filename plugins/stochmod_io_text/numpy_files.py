@@ -48,7 +48,7 @@ def _columns(path: Path, arrays: dict[str, np.ndarray]) -> tuple[np.ndarray, tup
             blocks.append(arr)
         else:
             raise InputError(f"{path}: array {name!r} has {arr.ndim} dimensions; expected 1 or 2")
-    return np.hstack(blocks).astype(np.float64), tuple(names)
+    return np.hstack(blocks).astype(np.float64, copy=False), tuple(names)
 
 
 class NpzReader(Reader):
@@ -66,13 +66,15 @@ class NpzReader(Reader):
 
     def read(self, path: Path, time_column: str | None = None) -> Recording:
         with np.load(path, allow_pickle=False) as z:
-            freq = float(z["freq"]) if "freq" in z.files and z["freq"].size == 1 else None
-            units = z["units"] if "units" in z.files else None
-            arrays = {
-                k: z[k]
-                for k in z.files
-                if z[k].ndim >= 1 and np.issubdtype(z[k].dtype, np.number) and k != "freq"
-            }
+            members = {k: z[k] for k in z.files}  # each z[k] reads (and checks) the member again
+        freq_array = members.get("freq")
+        freq = float(freq_array) if freq_array is not None and freq_array.size == 1 else None
+        units = members.get("units")
+        arrays = {
+            k: a
+            for k, a in members.items()
+            if a.ndim >= 1 and np.issubdtype(a.dtype, np.number) and k != "freq"
+        }
         names = tuple(arrays)
         it = find_time_column(names, time_column, path)
         time = None

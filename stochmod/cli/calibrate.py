@@ -328,7 +328,9 @@ def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
         segments, freq, dt = _checked_input(args)
     _sensor_units(args, segments)  # bad options fail here, not in every column's task
     selection_options(args)
-    return UnitInput([attrs.evolve(r, data=r.data * args.scale) for r in segments], freq, dt)
+    if args.scale != 1.0:  # x * 1.0 is x: no copy of the samples for the default
+        segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]
+    return UnitInput(list(segments), freq, dt)
 
 
 def unit_columns(unit: UnitInput) -> list[str]:
