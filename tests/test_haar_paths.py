@@ -39,6 +39,24 @@ def test_classical_sweeps_match_convolution(path, monkeypatch, chunk, halo, n):
         assert res.wv[j - 1] == pytest.approx(np.mean(direct**2), rel=1e-11)
 
 
+@pytest.mark.parametrize("n", [2, 4097, 10_007])
+def test_level_coefficients_match_convolution(path, n):
+    """The pyramid with coefficients (eq. 17, the classical WV with intervals): every level's
+    interior coefficients and their sum of squares equal the direct convolution's (the
+    compiled level runs in place through blocks of 4096 samples: one, two and three here)."""
+    x = _signal(n, n)
+    buf = np.full(n, np.nan)
+    levels = modwt.max_level(n)
+    seen = 0
+    for j, sumsq, m in modwt.pyramid(x, levels, "haar", buf):
+        direct = np.convolve(x, modwt.modwt_filter(j), mode="valid")
+        assert m == direct.size
+        np.testing.assert_allclose(buf[:m], direct, rtol=1e-9, atol=1e-9)
+        assert sumsq == pytest.approx(np.sum(direct**2), rel=1e-11)
+        seen += 1
+    assert seen == levels
+
+
 @pytest.mark.skipif(haar_jit.numba is None, reason="numba is not installed")
 def test_compiled_and_numpy_classical_agree_to_rounding(monkeypatch):
     x = _signal(300_001, 3)

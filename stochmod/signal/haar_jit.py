@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "compiled", "haar_sweep", "haar_level_power_sums"]
+__all__ = ["AVAILABLE", "compiled", "haar_level_coefficients", "haar_level_power_sums",
+           "haar_sweep"]
 
 _BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
 _GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
@@ -124,6 +125,38 @@ def haar_sweep(src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int,
                 totals[i] += _level(src[s:], bufs[0], own, size, step)
             else:
                 totals[i] += _level(bufs[(i - 1) % 2], bufs[i % 2], own, size, step)
+
+
+@_jit
+def haar_level_coefficients(v: np.ndarray, n_valid: int, step: int, factor: float,
+                            update: bool, w_out: np.ndarray) -> float:  # pragma: no cover
+    """One Haar level with its coefficients, in one pass over the unscaled sums
+    ``V = v[:n_valid]``: ``w_out[t] = (V[t + step] - V[t]) * factor`` for the
+    ``M = n_valid - step`` interior positions; returns the sum of ``(V[t + step] - V[t])^2``;
+    if `update`, ``v[t]`` becomes ``V[t] + V[t + step]`` (t < M, the next level's sums),
+    block by block through a buffer, so that the in-place update reads only old values.
+    The loop of :func:`stochmod.signal.modwt.haar_differences` and its caller's scaling."""
+    m = n_valid - step
+    acc = 0.0
+    buf = np.empty(_BLOCK)
+    for s in range(0, m, _BLOCK):
+        e = min(s + _BLOCK, m)
+        n = e - s
+        a_ = v[s:e]  # slices indexed from 0: no wrap-around checks, so LLVM vectorises
+        b_ = v[s + step : e + step]
+        w_ = w_out[s:e]
+        d_ = buf[:n]
+        for t in range(n):
+            a = a_[t]
+            b = b_[t]
+            d = b - a
+            acc += d * d
+            w_[t] = d * factor
+            d_[t] = a + b
+        if update:
+            for t in range(n):
+                a_[t] = d_[t]
+    return acc
 
 
 @_jit

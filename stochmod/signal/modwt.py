@@ -401,7 +401,11 @@ def pyramid(
         update = j < levels  # the scaling coefficients are not needed after the last level
         rows = coef if update else coef[:1]
         total = 0.0
-        if haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
+        if haar and haar_jit.AVAILABLE:  # the loop below and the scaling, compiled
+            total = haar_jit.haar_level_coefficients(v, n_valid, step, sign * 0.5**j, update,
+                                                     w_out)
+            total = total if sumsq else 0.0
+        elif haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
             for s, w in haar_differences(v, n_valid, step, update, scratch):
                 if sumsq:
                     total += _sumsq(w)
