@@ -8,8 +8,8 @@ eqs. 7 and 14; :mod:`stochmod.signal.allan`). Each difference is the same floati
 operation as in the numpy path of :mod:`stochmod.signal.allan`; only the order in which the
 squares are summed differs (``reassoc``: several partial sums in SIMD lanes).
 
-Why a compiled loop (measured at N = 2^20, the decade grid of a datasheet reading, 52 taus:
-11 ms against 67-83 ms): numpy needs four to seven calls per block of the sum (the
+Why a compiled loop (measured at N = 2^20, the 55 taus of a datasheet reading's decade grid:
+23 ms against 83 ms; 11 ms against 67-83 ms for m = 1..52): numpy needs four to seven calls per block of the sum (the
 differences, into scratch arrays, and the sum of squares), each of which reads and writes its
 block; one loop reads the three or four shifted views of the phase once and keeps the sum in
 registers. The loop indexes contiguous views of ``c``, not ``c[i + m]``, so that LLVM

@@ -1,4 +1,4 @@
-"""Optional compiled loops (numba) for the Haar MODWT pyramid's two hot paths.
+"""Optional compiled loops (numba) for the Haar MODWT pyramid's hot paths.
 
 numba is an optional dependency (the ``fast`` extra). Without it, :data:`AVAILABLE` is False
 and :mod:`stochmod.signal.modwt` and :mod:`stochmod.signal.robust_wv` run their pure-numpy
