@@ -39,6 +39,7 @@ noise (ARW), -1 flicker (bias instability), -2 rate random walk, -3/-4 for Hadam
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from typing import Any
@@ -494,6 +495,7 @@ _TABLE2 = [
 _TABLE3 = [(6.0, 4.0), (15.23, 12.0), (47.8, 40.0)]  # alpha = 1: (b0, b1) by d
 
 
+@functools.lru_cache(maxsize=4096)  # a fleet's axes share N and the grid: the same EDFs again
 def _edf_one(alpha: int, d: int, m: int, n_phase: int, overlapping: bool, modified: bool) -> float:
     f = 1.0 if modified else float(m)
     s = float(m) if overlapping else 1.0
