@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from stochmod.signal import allan, allan_jit, haar_jit
 
 needs_numba = pytest.mark.skipif(haar_jit.numba is None,
