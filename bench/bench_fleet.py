@@ -144,6 +144,10 @@ def main() -> None:
     p.add_argument("--rounds", type=int, default=1,
                    help="rounds of every kind of run: parallel, serial, one-worker, then back "
                         "again and so on, so that a drift of the machine hits all alike (default 1)")
+    p.add_argument("--pause", type=float, default=0.0, metavar="S",
+                   help="seconds of rest before each run after the first, so that every run "
+                        "starts from an idle machine as a user's single run does (default 0; on a "
+                        "virtual machine whose host slows sustained load, e.g. 60)")
     p.add_argument("--no-one-worker", action="store_true", help="skip the one-worker fleet runs")
     p.add_argument("--command", default=None, metavar="CMD",
                    help="the stochmod command to time (default: this environment's console "
@@ -152,6 +156,8 @@ def main() -> None:
     kinds = ["parallel", "serial"] + ([] if a.no_one_worker else ["one-worker"])
     if a.rounds < 1:
         p.error(f"--rounds must be a positive integer, got {a.rounds}")
+    if a.pause < 0:
+        p.error(f"--pause must be zero or positive, got {a.pause}")
     order = [kind for r in range(a.rounds) for kind in (kinds if r % 2 == 0 else kinds[::-1])]
     extra = {"parallel": ["--workers", str(a.workers)], "serial": [], "one-worker": ["--workers", "1"]}
     with tempfile.TemporaryDirectory() as tmp:
@@ -159,13 +165,16 @@ def main() -> None:
         files = _files(folder, a.files, a.n)
         runs: dict[str, list[dict]] = defaultdict(list)
         for k, kind in enumerate(order):
+            if k and a.pause:
+                time.sleep(a.pause)
             runs[kind].append(_run(files, folder / f"{kind}{k}", extra[kind], a.command))
         same = _same_results(files, [r["out"] for rs in runs.values() for r in rs])
     best = {kind: min(rs, key=lambda r: r["wall"]) for kind, rs in runs.items()}
     par, ser = best["parallel"], best["serial"]
     load = Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else "?"
     print(f"{a.files} files x {len(XSENS_COLUMNS)} axes x {a.n:,} samples, candidates {CANDIDATES}; "
-          f"load average at the end {' '.join(load)}")
+          f"load average at the end {' '.join(load)}"
+          + (f"; {a.pause:g} s of rest before each run" if a.pause else ""))
     print("every run (wall s / CPU s of its process tree):")
     for kind, rs in runs.items():
         print(f"  {kind:10s} " + ", ".join(f"{r['wall']:.1f} / {r['cpu']:.1f}" for r in rs))
