@@ -146,8 +146,8 @@ def main() -> None:
                         "again and so on, so that a drift of the machine hits all alike (default 1)")
     p.add_argument("--pause", type=float, default=0.0, metavar="S",
                    help="seconds of rest before each run after the first, so that every run "
-                        "starts from an idle machine as a user's single run does (default 0; on a "
-                        "virtual machine whose host slows sustained load, e.g. 60)")
+                        "starts from an idle machine as a user's single run does (default 0; "
+                        "e.g. 60 on a virtual machine, whose host may slow sustained load)")
     p.add_argument("--no-one-worker", action="store_true", help="skip the one-worker fleet runs")
     p.add_argument("--command", default=None, metavar="CMD",
                    help="the stochmod command to time (default: this environment's console "
