@@ -156,6 +156,8 @@ def main() -> None:
     kinds = ["parallel", "serial"] + ([] if a.no_one_worker else ["one-worker"])
     if a.rounds < 1:
         p.error(f"--rounds must be a positive integer, got {a.rounds}")
+    if a.files < 2:  # one FILE is a single-file calibration, not a fleet: no fleet_tasks.csv
+        p.error(f"--files must be at least 2 (one file is not a fleet), got {a.files}")
     if a.pause < 0:
         p.error(f"--pause must be zero or positive, got {a.pause}")
     order = [kind for r in range(a.rounds) for kind in (kinds if r % 2 == 0 else kinds[::-1])]
