@@ -330,7 +330,7 @@ def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
     selection_options(args)
     if args.scale != 1.0:  # x * 1.0 is x: no copy of the samples for the default
         segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]
-    return UnitInput(list(segments), freq, dt)
+    return UnitInput(segments, freq, dt)
 
 
 def unit_columns(unit: UnitInput) -> list[str]:
