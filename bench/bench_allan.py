@@ -15,7 +15,7 @@ from __future__ import annotations
 import allantools
 import numpy as np
 
-from stochmod.signal.allan import avar
+from stochmod.empirical.allan import avar
 from _timing import best_of
 
 

@@ -16,7 +16,7 @@ from scipy.signal import lfilter
 from statsmodels.regression.linear_model import burg as sm_burg
 from statsmodels.regression.linear_model import yule_walker as sm_yule_walker
 
-from stochmod.signal.ar_fit import burg, fit_ar, yule_walker
+from stochmod.empirical.ar_fit import burg, fit_ar, yule_walker
 from _timing import best_of
 
 

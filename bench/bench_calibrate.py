@@ -42,8 +42,8 @@ from _timing import best_of
 
 import stochmod.cli.calibrate as cli_calibrate
 from stochmod.cli import main as cli_main
-from stochmod.signal.wavelet_variance import wvar
-from stochmod.signal.wv_covariance import wv_covariance
+from stochmod.empirical.wavelet_variance import wvar
+from stochmod.empirical.wv_covariance import wv_covariance
 
 FILE = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "imudata" / "adis_16405_imu1.npz"
 

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pywt
 
-from stochmod.signal.denoise import denoise
+from stochmod.empirical.denoise import denoise
 from _timing import best_of
 
 

@@ -8,14 +8,14 @@ and the cluster's start-up included): ``stochmod calibrate FILE ... --candidates
 (no ``--workers``: one file after the other in one process, each file's fits in its own
 thread), with ``--workers N`` and with ``--workers 1`` (the same
 fleet machinery on one worker; a unit's read, each column's selection and its outputs are
-tasks of their own, :class:`stochmod.fleet.UnitSteps`). The runs are made in the order parallel, serial, one-worker
+tasks of their own, :class:`stochmod.workflows.fleet.UnitSteps`). The runs are made in the order parallel, serial, one-worker
 (and back again, and so on, with ``--rounds N``, so that a drift of the machine's load hits
 all alike); the best of each kind is kept, each round's own ratios are printed beside the
 ratios of the bests, and the runs' results are checked to be identical.
 
 Printed: every run's wall time and the CPU time of its whole process tree; the ratios
 serial / parallel and one-worker / parallel; and, from ``OUT/fleet_tasks.csv`` (each task's
-stages timed inside its worker, :class:`stochmod.fleet.TaskTiming`), where the parallel
+stages timed inside its worker, :class:`stochmod.workflows.fleet.TaskTiming`), where the parallel
 run's time went: per stage, per worker (start-up, busy, idle gaps, tail) and the CPU-time
 scaling (the tasks' CPU over the run's wall: how many cores the fleet kept busy), which
 says more than the wall ratio on a shared machine; and, per round, the tasks' CPU in the
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from stochmod.examples import XSENS_COLUMNS, xsens_mtig
-from stochmod.fleet import STAGES
+from stochmod.data.examples import XSENS_COLUMNS, xsens_mtig
+from stochmod.workflows.fleet import STAGES
 
 CANDIDATES = ["GM+WN", "2*GM+WN", "WN+RW"]
 STAGE_NAMES = [*dict.fromkeys(STAGES.values()), "other"]

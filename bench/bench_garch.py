@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from stochmod.signal.garch import fit_garch, garch_loglikelihood
+from stochmod.fit.garch import fit_garch, garch_loglikelihood
 from _timing import best_of
 
 TRUTH = (1.3e-7, 0.0175, 0.98)

@@ -24,7 +24,7 @@ import time
 from study_xsens import _slowest_gm_and_wn
 
 from stochmod.cli.outages import white_part
-from stochmod.examples import xsens_mtig_models
+from stochmod.data.examples import xsens_mtig_models
 from stochmod.nav.study import outage_study
 
 

@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from stochmod.signal import haar_jit
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.empirical import haar_jit
+from stochmod.empirical.wavelet_variance import wvar
 from _timing import best_of, peak_ratio
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from _timing import best_of
 from stochmod_rosbag.write import write_imu_bag
 
-from stochmod.io import read_recording
+from stochmod.io.recording import read_recording
 
 RATE = 200.0
 TOPIC = "/imu"

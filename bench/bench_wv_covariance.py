@@ -30,7 +30,7 @@ from bench_gmwm import FREQ, simulated, time_oadev
 
 import stochmod
 from stochmod.fit.weighting import model_covariance
-from stochmod.signal.wv_covariance import wv_covariance
+from stochmod.empirical.wv_covariance import wv_covariance
 
 
 def _task(what: str, x: np.ndarray):

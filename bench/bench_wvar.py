@@ -4,7 +4,7 @@ Run: ``python bench/bench_wvar.py [N]``. Both compute the same quantity at every
 (Haar WV = AVAR / 2); times are the best of 3 runs each, in the same process. Also reports the
 peak extra memory of ``wvar`` (tracemalloc) relative to the input array, and the db4 and
 "normal"-interval timings for information. With numba installed (extra ``fast``) the Haar
-path runs compiled loops (:mod:`stochmod.signal.haar_jit`); the pure-numpy fallback is timed
+path runs compiled loops (:mod:`stochmod.empirical.haar_jit`); the pure-numpy fallback is timed
 too, for information.
 """
 
@@ -15,8 +15,8 @@ import sys
 import allantools
 import numpy as np
 
-from stochmod.signal import haar_jit
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.empirical import haar_jit
+from stochmod.empirical.wavelet_variance import wvar
 from _timing import best_of, peak_ratio
 
 

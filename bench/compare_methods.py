@@ -6,8 +6,8 @@
 Real data: ADIS16405 imu1 (`../shared/data/imudata/adis_16405_imu1.npz`), Gyro_X (deg/s ->
 rad/s) and Accel_X (g -> m/s^2), mean removed, 100 Hz. For each column it runs the Allan (AV),
 PSD, ACF, Burg AR(3), de-noised AR(3), AVWD and GMWM methods, prints each model's parameters in
-datasheet units (stochmod.units), the GMWM objective of every model's wavelet variance against
-the data's (stochmod.classical.pipelines.compare_models), the per-level ratios, and the wall time
+datasheet units (stochmod.core.units), the GMWM objective of every model's wavelet variance against
+the data's (stochmod.fit.classical.pipelines.compare_models), the per-level ratios, and the wall time
 of each method. There is no peer to time against here (bench_allan / bench_gmwm do that); the
 times only show what each method costs on 10^6 samples.
 
@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 import stochmod as sm
-from stochmod.classical import ar_model
-from stochmod.signal.ar_fit import fit_ar
-from stochmod.classical.pipelines import (
+from stochmod.fit.classical import ar_model
+from stochmod.empirical.ar_fit import fit_ar
+from stochmod.fit.classical.pipelines import (
     acf_gm_model,
     av_model,
     avwd_model,
@@ -38,8 +38,8 @@ from stochmod.classical.pipelines import (
     denoised_ar_model,
     psd_model,
 )
-from stochmod.signal.allan_reading import DATASHEET_UNITS, TERMS
-from stochmod.units import STANDARD_GRAVITY, convert, parse_unit
+from stochmod.empirical.allan_reading import DATASHEET_UNITS, TERMS
+from stochmod.core.units import STANDARD_GRAVITY, convert, parse_unit
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "imudata"
 FS = 100.0

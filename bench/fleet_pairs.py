@@ -12,11 +12,11 @@ Probes, from compute-bound to memory-bound:
 - ``numpy-l2``: element-wise numpy on two 0.8 MB arrays (each core's L2);
 - ``numpy-l3``: the same on two 16 MB arrays (together, the two processes' 64 MB exceed the
   shared L3 cache of 32 MB on the machine this was written on);
-- ``eq17``: stochmod's WV covariance (:func:`stochmod.signal.wv_covariance.wv_covariance`,
+- ``eq17``: stochmod's WV covariance (:func:`stochmod.empirical.wv_covariance.wv_covariance`,
   one thread) of 2^20 samples, more than half of a fleet task's CPU (its J float32 spectra
   are 80 MB);
 - ``calibrate``: one fleet task of ``bench/bench_fleet.py`` (6 axes x 2^20 samples, three
-  candidates, no figures), warm (:mod:`stochmod._fleet_worker` imported first).
+  candidates, no figures), warm (:mod:`stochmod.cli.fleet_worker` imported first).
 
 A fleet of identical files on two workers (dynamic assignment: a worker takes the next file
 when it is free) can be at most ``2 / ratio`` times faster than one worker, before its
@@ -38,13 +38,13 @@ PROBES = {
                  "for _ in range(3000):\n    np.multiply(a, 0.5, out=b); np.add(b, 0.25, out=a)"),
     "numpy-l3": ("a = np.random.default_rng(0).random(2_000_000); b = np.empty_like(a)\n"
                  "for _ in range(150):\n    np.multiply(a, 0.5, out=b); np.add(b, 0.25, out=a)"),
-    "eq17": ("from stochmod.signal.wv_covariance import wv_covariance\n"
+    "eq17": ("from stochmod.empirical.wv_covariance import wv_covariance\n"
              "x = np.random.default_rng(0).standard_normal(1 << 20)\nwv_covariance(x, workers=1)\n"
              "t = time.process_time()\nfor _ in range(3):\n    wv_covariance(x, workers=1)"),
-    "calibrate": ("import tempfile\nfrom pathlib import Path\nimport stochmod._fleet_worker\n"
+    "calibrate": ("import tempfile\nfrom pathlib import Path\nimport stochmod.cli.fleet_worker\n"
                   "from stochmod.cli import _parser_for\nfrom stochmod.cli.calibrate import calibrate_unit\n"
-                  "from stochmod.examples import XSENS_COLUMNS, xsens_mtig\n"
-                  "from stochmod.fleet import SerialExecutor, single_threaded\n"
+                  "from stochmod.data.examples import XSENS_COLUMNS, xsens_mtig\n"
+                  "from stochmod.workflows.fleet import SerialExecutor, single_threaded\n"
                   "tmp = Path(tempfile.mkdtemp())\nrec = xsens_mtig(n=1 << 20, seed=7)\n"
                   "np.savez(tmp / 'imu.npz', freq=rec.freq, **{c: rec.column(c) for c in XSENS_COLUMNS})\n"
                   "argv = ['calibrate', str(tmp / 'imu.npz'), '--candidates', 'GM+WN', '2*GM+WN', "

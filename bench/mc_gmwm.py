@@ -37,7 +37,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 import stochmod
-from stochmod.errors import EstimationError
+from stochmod.core.errors import EstimationError
 from stochmod.fit.gmwm import gmwm
 
 FREQ = 100.0

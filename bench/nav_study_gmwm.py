@@ -2,9 +2,9 @@
 by the GMWM to an emulated static record, as in Stebler et al. (2014) Section VI, instead of
 being sub-models of the truth (bench/study_xsens.py).
 
-The truth is the simulated XSens MTi-G of stochmod.examples (Table II, "driving" reading:
+The truth is the simulated XSens MTi-G of stochmod.data.examples (Table II, "driving" reading:
 gyros GM + GM + WN, accelerometers GM + GM + GM + WN). Its static record
-(``stochmod.examples.xsens_mtig``, 2^19 samples at 100 Hz, seed 2014) is fitted per axis with
+(``stochmod.data.examples.xsens_mtig``, 2^19 samples at 100 Hz, seed 2014) is fitted per axis with
 three structures:
 
 - model 1: ``WN`` (the GMWM gives white noise alone its best level over all scales);
@@ -15,7 +15,7 @@ The outage study then draws the sensor errors of each emulated drive from the TR
 navigates with the three fitted ones and with the true models themselves (the reference row).
 The filters are told the record's length (5243 s), so a fitted Gauss-Markov component whose
 correlation time lies beyond it enters them as the random walk it is over the record
-(``outage_study(record=)``, stochmod.equivalence); ``--no-record`` takes the fits as they are
+(``outage_study(record=)``, stochmod.fit.equivalence); ``--no-record`` takes the fits as they are
 (the degenerate full fit then navigates at kilometres). Run ``python bench/nav_study_gmwm.py
 [--runs R] [--workers N] [--dt-filter S] [--no-record]``; the table is quoted in
 docs/outages.md.
@@ -28,7 +28,7 @@ import sys
 import time
 
 import stochmod
-from stochmod.examples import xsens_mtig, xsens_mtig_models
+from stochmod.data.examples import xsens_mtig, xsens_mtig_models
 from stochmod.nav.study import outage_study
 
 STRUCTURES = {"model 1 (WN fit)": ("WN", "WN"),

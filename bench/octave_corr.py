@@ -1,4 +1,4 @@
-"""Regenerate ``_OCTAVE_CORR`` of stochmod/signal/allan_reading.py by seeded simulation.
+"""Regenerate ``_OCTAVE_CORR`` of stochmod/empirical/allan_reading.py by seeded simulation.
 
 The slope reading treats the ln Allan-variance estimates of a region as correlated, with
 correlation ``floor + (1 - floor) r^d`` between averaging times d octaves apart
@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from stochmod.signal.allan import avar
+from stochmod.empirical.allan import avar
 
 FS = 1.0
 

@@ -1,5 +1,5 @@
 """Outage study in the shape of Stebler et al. (2014) Table III (and Quinchia et al. 2013
-Tables 9-10): the simulated XSens MTi-G of stochmod.examples (Stebler Table II: gyros GM + GM +
+Tables 9-10): the simulated XSens MTi-G of stochmod.data.examples (Stebler Table II: gyros GM + GM +
 WN, accelerometers GM + GM + GM + WN) is the truth; three filters differ only in their error
 model:
 
@@ -22,8 +22,8 @@ import sys
 import time
 
 from stochmod.cli.outages import QUICK_OUTAGES, QUICK_PROFILE, white_part
-from stochmod.examples import xsens_mtig_models
-from stochmod.model import Model
+from stochmod.data.examples import xsens_mtig_models
+from stochmod.core.model import Model
 from stochmod.nav.study import DEFAULT_OUTAGES, DEFAULT_PROFILE, outage_study
 
 

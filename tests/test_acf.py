@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 from statsmodels.tsa.stattools import acf as sm_acf
 
-from stochmod.classical import acf_model
-from stochmod.errors import EstimationError, InputError
-from stochmod.signal.acf import acf, acovf, fit_gm_acf
+from stochmod.fit.classical import acf_model
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.empirical.acf import acf, acovf, fit_gm_acf
 
 
 def _gm(rng: np.random.Generator, n: int, beta: float, sigma2: float, freq: float) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Tests of stochmod.signal.allan: the Allan variance family, tau grids, EDF and intervals.
+"""Tests of stochmod.empirical.allan: the Allan variance family, tau grids, EDF and intervals.
 
 Truth: allantools (oadev, adev, ohdev, hdev, mdev and ci.edf_greenhall) on the same data at
 the same averaging factors; a brute-force double sum for the modified Hadamard variance
@@ -21,8 +21,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stochmod.errors import InputError
-from stochmod.signal.allan import (
+from stochmod.core.errors import InputError
+from stochmod.empirical.allan import (
     KINDS,
     AllanVariance,
     avar,

@@ -1,5 +1,5 @@
 """The overlapping Allan and Hadamard sums' two paths, the compiled loop
-(:mod:`stochmod.signal.allan_jit`) and numpy in blocks (:mod:`stochmod.signal.allan`), each
+(:mod:`stochmod.empirical.allan_jit`) and numpy in blocks (:mod:`stochmod.empirical.allan`), each
 against an exact integer computation of ``sum_i (Delta^d_m c_i)^2``."""
 
 from __future__ import annotations
@@ -11,9 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stochmod.signal import allan, allan_jit, haar_jit
+from stochmod.core import jit
+from stochmod.empirical import allan, allan_jit, haar_jit
 
-needs_numba = pytest.mark.skipif(haar_jit.numba is None,
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE,
                                  reason="numba (the 'fast' extra) is not installed")
 
 #: Phase values up to 2^16 in magnitude: every difference (< 2^19) and square (< 2^38) is

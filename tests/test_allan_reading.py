@@ -1,9 +1,9 @@
-"""Tests of stochmod.signal.allan_reading: the IEEE 952 slope reading of the Allan variance.
+"""Tests of stochmod.empirical.allan_reading: the IEEE 952 slope reading of the Allan variance.
 
 Truth: seeded simulations with known coefficients (white noise N, random walk K, first-order
 Gauss-Markov, flicker noise of two-sided PSD B^2 / (2 pi f) made by spectral shaping as in
 Stebler et al. (2014) Table I, quantization X_t = sqrt(12 Q2)(U_t - U_{t-1})); exact discrete
-Allan variances of the per-sample models of ``stochmod.classical.allan_model`` computed from their autocovariances;
+Allan variances of the per-sample models of ``stochmod.fit.classical.allan_model`` computed from their autocovariances;
 the maximum of the Gauss-Markov AV found numerically with mpmath; the R gmwm package's
 wavelet variance of the real ADIS16405 gyro (``../shared/data/reference``).
 
@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from stochmod.classical import allan_model
-from stochmod.errors import EstimationError, InputError
-from stochmod.signal.allan import avar
-from stochmod.signal.allan_reading import (
+from stochmod.fit.classical import allan_model
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.empirical.allan import avar
+from stochmod.empirical.allan_reading import (
     GM_PEAK_AV,
     GM_PEAK_X,
     AllanReading,

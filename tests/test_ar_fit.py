@@ -15,9 +15,9 @@ from statsmodels.regression.linear_model import burg as sm_burg
 from statsmodels.regression.linear_model import yule_walker as sm_yule_walker
 from statsmodels.tsa.stattools import pacf_burg
 
-from stochmod.classical import ar_model
-from stochmod.errors import EstimationError, InputError
-from stochmod.signal.ar_fit import (
+from stochmod.fit.classical import ar_model
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.empirical.ar_fit import (
     ar_roots_modulus,
     burg,
     check_stationary,

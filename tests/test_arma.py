@@ -12,8 +12,8 @@ import pytest
 from scipy.signal import lfilter
 
 import stochmod
-from stochmod.errors import EstimationError, InputError
-from stochmod.signal.arma import arma_innovations, fit_arma, select_arma
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.fit.arma import arma_innovations, fit_arma, select_arma
 
 TABLE1_AR = (1.666, -0.671)
 TABLE1_MA = (-1.086, 0.160)
@@ -29,7 +29,7 @@ def simulate_arma(n: int, nu: float, ar: tuple, ma: tuple, sigma: float, seed: i
 def test_table1_arma22_recovered_within_standard_errors() -> None:
     truth = np.array([0.0, *TABLE1_AR, *TABLE1_MA])
     x = simulate_arma(200_000, 0.0, TABLE1_AR, TABLE1_MA, 2e-3, seed=1)
-    fit = stochmod.fit_arma(x, 2, 2)
+    fit = fit_arma(x, 2, 2)
     assert fit.converged
     z = (fit.params - truth) / fit.std_errors
     assert np.all(np.abs(z) < 4), (fit.params, fit.std_errors)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from stochmod.cli import main
-from stochmod.signal.allan import avar
-from stochmod.signal.allan_reading import allan_reading
+from stochmod.empirical.allan import avar
+from stochmod.empirical.allan_reading import allan_reading
 
 FREQ = 100.0
 

@@ -12,8 +12,8 @@ import pytest
 import stochmod
 from stochmod.cli import calibrate as calibrate_cli
 from stochmod.cli import main
-from stochmod.errors import InputError
-from stochmod.examples import XSENS_COLUMNS, xsens_mtig, xsens_mtig_models
+from stochmod.core.errors import InputError
+from stochmod.data.examples import XSENS_COLUMNS, xsens_mtig, xsens_mtig_models
 from stochmod.fit.gmwm import gmwm
 
 G0 = 9.80665  # standard gravity, m/s^2 (ug = 1e-6 g0)
@@ -178,7 +178,7 @@ def test_example_simulation_has_the_models_wavelet_variance():
 # ---------------------------------------------------------------- figures
 def test_simulated_wv_mean_matches_theory_and_figure_has_the_layers():
     pytest.importorskip("matplotlib")
-    from stochmod.plots import plot_fit, simulated_wv
+    from stochmod.output.plots import plot_fit, simulated_wv
 
     truth = stochmod.model_from_spec("WN(sigma2=4.0)", 10.0)
     fit = gmwm(truth.simulate(2**12, rng=1), "WN", 10.0)
@@ -194,7 +194,7 @@ def test_simulated_wv_mean_matches_theory_and_figure_has_the_layers():
 
 def test_simulated_wv_slices_stack_to_the_full_set_and_can_be_drawn():
     pytest.importorskip("matplotlib")
-    from stochmod.plots import plot_fit, simulated_wv
+    from stochmod.output.plots import plot_fit, simulated_wv
 
     truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1.0) + WN(sigma2=0.5)", 10.0)
     fit = gmwm(truth.simulate(2**11, rng=3), "GM+WN", 10.0)
@@ -210,7 +210,7 @@ def test_simulated_wv_slices_stack_to_the_full_set_and_can_be_drawn():
 
 
 def test_plots_without_matplotlib_name_the_extra(monkeypatch):
-    from stochmod import plots
+    from stochmod.output import plots
 
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
     fit = gmwm(np.random.default_rng(0).standard_normal(1024), "WN", 10.0)

@@ -10,10 +10,10 @@ import pytest
 from scipy.signal import lfilter
 
 from stochmod.cli import main
-from stochmod.io import read_recording
-from stochmod.signal.ar_fit import fit_ar
-from stochmod.signal.denoise import denoise
-from stochmod.signal.psd import psd_reading
+from stochmod.io.recording import read_recording
+from stochmod.empirical.ar_fit import fit_ar
+from stochmod.empirical.denoise import denoise
+from stochmod.empirical.psd import psd_reading
 
 FREQ = 100.0
 

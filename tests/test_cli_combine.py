@@ -2,7 +2,7 @@
 
 Truth: the synthetic columns equal the library's combination of the same arrays (itself
 tested against simulated truth in tests/test_combiners.py), the written file reads back
-through stochmod.io, and the printed noise reduction of the mean of 4 equal sensors is the
+through stochmod.io.recording, and the printed noise reduction of the mean of 4 equal sensors is the
 closed form 50 %.
 """
 
@@ -16,7 +16,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
-from stochmod.io import read_recording
+from stochmod.io.recording import read_recording
 
 FREQ = 100.0
 

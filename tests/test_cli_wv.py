@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from stochmod.cli import main
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.empirical.wavelet_variance import wvar
 
 FREQ = 50.0
 

@@ -18,10 +18,12 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.combination import CombinationResult, as_sensor_array
-from stochmod.errors import EstimationError, InputError, StochmodError
-from stochmod.examples_redundant import redundant_gyros
-from stochmod.reporting import format_table
+from stochmod import sdk
+from stochmod.plugin.registry import get_combiner
+from stochmod.redundant.combination import CombinationResult, as_sensor_array
+from stochmod.core.errors import EstimationError, InputError, StochmodError
+from stochmod.data.redundant import redundant_gyros
+from stochmod.core.tables import format_table
 from stochmod.testing import check_combiner
 
 FIRST_PARTY = ("averaged-volatility", "garch", "inverse-variance", "mean")
@@ -32,7 +34,7 @@ PLUGIN_DIR = Path(__file__).resolve().parents[1] / "docs" / "examples" / "third_
 def test_first_party_combiners_are_registered() -> None:
     assert set(FIRST_PARTY) <= set(stochmod.combiner_names())
     for name in FIRST_PARTY:
-        comb = stochmod.get_combiner(name)
+        comb = get_combiner(name)
         assert comb.name == name and comb.assumes and comb.description
         assert type(comb).__module__.startswith("stochmod_")  # a plugin, not the core
     with pytest.raises(InputError, match="unknown combiner 'nope'.*mean"):
@@ -88,12 +90,12 @@ def test_conformance_kit_fails_broken_combiners(fault: str, failing: str) -> Non
 
 def test_registry_refuses_bad_and_duplicate_combiners() -> None:
     class Dup:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_combiners(self) -> list[Any]:
             return [_Broken("mean", "sum")]
 
     class NotOne:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_combiners(self) -> list[Any]:
             return [object()]
 
@@ -102,12 +104,12 @@ def test_registry_refuses_bad_and_duplicate_combiners() -> None:
                           (NotOne(), "not a combiner")):
         with pytest.raises(StochmodError, match=match):
             stochmod.register_plugin(plugin)
-        assert stochmod.get_combiner("mean").__module__ == "stochmod_mean"
+        assert get_combiner("mean").__module__ == "stochmod_mean"
 
 
 def test_combine_checks_what_a_combiner_returns() -> None:
     class Plugin:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_combiners(self) -> list[Any]:
             return [_Broken("bad-sum", "sum")]
 

@@ -1,4 +1,4 @@
-"""Tests of stochmod.model: the algebra of composite models, parameter vectors and their
+"""Tests of stochmod.core.model: the algebra of composite models, parameter vectors and their
 transforms, the spec language (strings and dicts, JSON round trip), the sums of theoretical
 quantities, simulation, and the Kalman-filter augmentation.
 
@@ -18,8 +18,8 @@ import pytest
 
 import stochmod
 from stochmod import Model, model_from_spec
-from stochmod.errors import DomainError, InputError, SpecError, StochmodError, UnknownProcessError
-from stochmod.model import as_model
+from stochmod.core.errors import DomainError, InputError, SpecError, StochmodError, UnknownProcessError
+from stochmod.core.model import as_model
 
 FREQ = 100.0
 

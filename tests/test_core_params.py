@@ -1,4 +1,4 @@
-"""Tests of stochmod.params: domains, their bijections with an unconstrained space, the
+"""Tests of stochmod.core.params: domains, their bijections with an unconstrained space, the
 PACF <-> AR map and its stationarity, Jacobians and DomainError messages.
 
 Truth: mpmath at 40 digits for the elementwise maps and their derivatives; numpy polynomial
@@ -15,8 +15,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from stochmod.errors import DomainError
-from stochmod.params import DOMAINS, Parameter, ar_to_pacf, get_domain, pacf_to_ar
+from stochmod.core.errors import DomainError
+from stochmod.core.params import DOMAINS, Parameter, ar_to_pacf, get_domain, pacf_to_ar
 
 mp.mp.dps = 40
 
@@ -183,7 +183,7 @@ def test_stationary_domain_accepts_a_scalar_coefficient_and_saturated_pacf_stays
 
 @pytest.mark.parametrize("name", ["positive", "real", "correlation", "unit_interval"])
 def test_scalar_contains_gives_the_verdict_of_contains(name: str) -> None:
-    from stochmod.params import scalar_contains
+    from stochmod.core.params import scalar_contains
 
     contains = scalar_contains(name)
     values = [0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1 - 2**-53, -1 + 2**-53, 5e-324, -5e-324, 1e308,
@@ -193,7 +193,7 @@ def test_scalar_contains_gives_the_verdict_of_contains(name: str) -> None:
 
 
 def test_scalar_contains_declines_vector_and_unknown_domains() -> None:
-    from stochmod.params import scalar_contains
+    from stochmod.core.params import scalar_contains
 
     assert scalar_contains("stationary_ar") is None and scalar_contains("nope") is None
 
@@ -204,7 +204,7 @@ def test_fast_from_unconstrained_is_the_general_rebuild_bit_for_bit() -> None:
     import warnings
 
     from stochmod import model_from_spec
-    from stochmod.process import Process, _scalar_layout
+    from stochmod.core.process import Process, _scalar_layout
 
     model = model_from_spec("GM(beta=2.0, sigma2=1e-6) + WN(sigma2=1e-4) + BI(B=1e-3, fc=0.1) "
                             "+ AR(phi=[0.5], sigma2=1.0)", 100.0)
@@ -237,7 +237,7 @@ def test_a_family_that_validates_its_fields_is_rebuilt_in_full() -> None:
     import attrs
 
     from stochmod import model_from_spec
-    from stochmod.process import _scalar_layout
+    from stochmod.core.process import _scalar_layout
 
     wn = type(model_from_spec("WN(sigma2=1.0)", 100.0).processes[0])
     calls = []

@@ -1,4 +1,4 @@
-"""Tests of stochmod.registry: entry-point discovery of the first-party families, lookup by
+"""Tests of stochmod.plugin.registry: entry-point discovery of the first-party families, lookup by
 name, runtime plugins, and the errors for unknown and duplicate families."""
 
 from __future__ import annotations
@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import SpecError, StochmodError, UnknownProcessError
-from stochmod.params import Parameter
-from stochmod.process import Process
-from stochmod.registry import criteria, get_process, plugin_manager, process_names, processes
+from stochmod import sdk
+from stochmod.core.errors import SpecError, StochmodError, UnknownProcessError
+from stochmod.core.params import Parameter
+from stochmod.core.process import Process
+from stochmod.plugin.registry import criteria, get_process, plugin_manager, process_names, processes
 
 FIRST_PARTY = {"WN": "stochmod_wn", "RW": "stochmod_rw", "GM": "stochmod_gm", "AR": "stochmod_ar",
                "QN": "stochmod_qn", "RR": "stochmod_rr", "BI": "stochmod_bi"}
@@ -53,7 +54,7 @@ class FakeWN(Process):
 
 def _plugin(*classes: type) -> object:
     class Plugin:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_processes(self) -> list[type]:
             return list(classes)
 
@@ -159,7 +160,7 @@ def test_criteria_hook() -> None:
             return 0.0
 
     class Plugin:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_criteria(self) -> list[object]:
             return [Criterion()]
 

@@ -1,6 +1,6 @@
-"""Tests of stochmod.statespace: Van Loan discretisation against closed forms and against
+"""Tests of stochmod.core.statespace: Van Loan discretisation against closed forms and against
 direct quadrature, composition of steps against repeated multiplication, block assembly,
-and the composer's per-axis augmentation (stochmod.model.augment_axes).
+and the composer's per-axis augmentation (stochmod.core.model.augment_axes).
 
 Closed forms: first-order Gauss-Markov dx = -beta x dt + dW, Qc = 2 beta sigma2:
 Phi = exp(-beta dt), Q = sigma2 (1 - exp(-2 beta dt)) (evaluated with mpmath); double
@@ -19,9 +19,10 @@ from scipy.integrate import quad_vec
 from scipy.linalg import expm
 
 import stochmod
-from stochmod.errors import InputError
-from stochmod.model import augment_axes
-from stochmod.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, stack_blocks, van_loan
+from stochmod import sdk
+from stochmod.core.errors import InputError
+from stochmod.core.model import augment_axes
+from stochmod.core.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, stack_blocks, van_loan
 
 mp.mp.dps = 40
 LOG = st.floats(-6, 3)  # log10 of a scale
@@ -172,5 +173,5 @@ def test_augment_axes_errors() -> None:
     WN = stochmod.get_process("WN")
     with pytest.raises(InputError, match="at least one axis"):
         augment_axes({}, 0.01)
-    with pytest.raises(stochmod.SpecError, match="must be a Model"):
+    with pytest.raises(sdk.SpecError, match="must be a Model"):
         augment_axes({"gyro_x": WN(sigma2=1.0)}, 0.01)

@@ -1,7 +1,7 @@
-"""stochmod.datasheet: fitted parameters in datasheet units, beside the Allan reading.
+"""stochmod.output.datasheet: fitted parameters in datasheet units, beside the Allan reading.
 
 Truth is set in datasheet units (deg/s, ug) and converted to SI here by hand (1 deg = pi/180
-rad, 1 h = 3600 s, 1 ug = 9.80665e-6 m/s^2), independently of stochmod.units.
+rad, 1 h = 3600 s, 1 ug = 9.80665e-6 m/s^2), independently of stochmod.core.units.
 """
 
 from __future__ import annotations
@@ -13,8 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import stochmod
-from stochmod.datasheet import datasheet, model_allan_minimum, sensor_unit, signal_unit
-from stochmod.errors import InputError
+from stochmod.output.datasheet import datasheet, model_allan_minimum
+from stochmod.core.units import sensor_unit, signal_unit
+from stochmod.core.errors import InputError
 from stochmod.fit.gmwm import gmwm
 
 D2R = math.pi / 180.0

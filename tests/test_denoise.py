@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import lfilter
 
-from stochmod.errors import InputError
-from stochmod.signal.denoise import (
+from stochmod.core.errors import InputError
+from stochmod.empirical.denoise import (
     band_limit,
     denoise,
     denoise_then_ar,
@@ -178,7 +178,7 @@ def test_denoise_then_ar_removes_the_white_noise_bias():
     phi = 0.995
     drift = lfilter([1.0], [1.0, -phi], rng.standard_normal(50_000) * 0.1)
     x = drift + rng.standard_normal(drift.size)
-    from stochmod.signal.ar_fit import fit_ar
+    from stochmod.empirical.ar_fit import fit_ar
 
     raw = fit_ar(x, 100.0, 1)
     den = denoise_then_ar(x, 100.0, 1, level=6)
@@ -189,8 +189,8 @@ def test_denoise_then_ar_removes_the_white_noise_bias():
 def test_denoised_allan_reproduces_figure_17_behaviour():
     # Quinchia Fig. 17: de-noising removes the short-term (white) noise while the long-term
     # noise keeps its Allan variance above the cut-off cluster time 2^(L+1) / freq
-    pytest.importorskip("stochmod.signal.allan", reason="the Allan module is not available")
-    from stochmod.signal.denoise import denoised_allan
+    pytest.importorskip("stochmod.empirical.allan", reason="the Allan module is not available")
+    from stochmod.empirical.denoise import denoised_allan
 
     rng = np.random.default_rng(6)
     n = 200_000

@@ -1,4 +1,4 @@
-"""stochmod.exports: Kalibr / OpenVINS / pyins / stochmod-nav configurations from fitted models.
+"""stochmod.output.exports: Kalibr / OpenVINS / pyins / stochmod-nav configurations from fitted models.
 
 Every exported number is recomputed here from the fitted model's canonical per-sample values
 (``model.to_spec()``) by hand: N = sqrt(sigma2_WN / fs), K = sqrt(sigma2_RW fs); the GM and
@@ -17,8 +17,8 @@ from statsmodels.tsa.arima_process import arma_acovf
 
 import stochmod
 from stochmod.cli import main
-from stochmod.errors import InputError
-from stochmod.exports import (kalibr_yaml, noise_terms, openvins_yaml, pyins_parameters,
+from stochmod.core.errors import InputError
+from stochmod.output.exports import (kalibr_yaml, noise_terms, openvins_yaml, pyins_parameters,
                               random_walk_bound, stochmod_nav_config)
 from stochmod.fit.gmwm import gmwm
 

@@ -26,8 +26,8 @@ from scipy import integrate
 from statsmodels.tsa.arima_process import arma_acovf, arma_periodogram
 
 from stochmod import model_from_spec
-from stochmod.errors import AccuracyWarning, DomainError, InputError, SpecError
-from stochmod.params import pacf_to_ar
+from stochmod.core.errors import AccuracyWarning, DomainError, InputError, SpecError
+from stochmod.core.params import pacf_to_ar
 from stochmod_ar import AR
 from test_family_gm import empirical_haar_wv  # the independent Haar WV estimator of the GM tests
 
@@ -165,7 +165,7 @@ def test_haar_wv_does_not_depend_on_freq():
 
 def test_other_wavelets_use_psd_quadrature():
     ar = AR.example(100.0)
-    from stochmod.theory import wv_from_psd
+    from stochmod.core.theory import wv_from_psd
     np.testing.assert_allclose(ar.wv(8, 100.0, "db4"),
                                wv_from_psd(lambda f: ar.psd(f, 100.0), 8, 100.0, wavelet="db4"), rtol=1e-12)
 

@@ -24,11 +24,11 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from stochmod import model_from_spec
-from stochmod.errors import DomainError, EstimationError, InputError, SpecError
-from stochmod.signal.wavelet_variance import wvar
-from stochmod.statespace import compose_steps
-from stochmod.theory import wv_from_autocovariance
-from stochmod.units import BI_FACTOR, BI_FACTOR_IEEE
+from stochmod.core.errors import DomainError, EstimationError, InputError, SpecError
+from stochmod.empirical.wavelet_variance import wvar
+from stochmod.core.statespace import compose_steps
+from stochmod.core.theory import wv_from_autocovariance
+from stochmod.core.units import BI_FACTOR, BI_FACTOR_IEEE
 from stochmod_bi import BI, DEFAULT_N_GM, HALF_FLOOR_TAU_FC, circulant_embedding
 from stochmod_wn import WN
 

@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from stochmod import model_from_spec
-from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.statespace import compose_steps
-from stochmod.theory import wv_from_autocovariance, wv_from_psd
-from stochmod.units import BI_FACTOR, BI_FACTOR_IEEE, DEG, HOUR
+from stochmod.core.errors import DomainError, InputError, SpecError
+from stochmod.core.statespace import compose_steps
+from stochmod.core.theory import wv_from_autocovariance, wv_from_psd
+from stochmod.core.units import BI_FACTOR, BI_FACTOR_IEEE, DEG, HOUR
 from stochmod_gm import GM, PEAK_X
 
 LEVELS = (1, 2, 3, 6, 11, 12, 13, 17, 24, 30)

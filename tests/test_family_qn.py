@@ -20,10 +20,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stochmod import model_from_spec
-from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.signal.modwt import modwt_filter
-from stochmod.signal.wavelet_variance import wvar
-from stochmod.theory import wv_from_psd
+from stochmod.core.errors import DomainError, InputError, SpecError
+from stochmod.core.filters import modwt_filter
+from stochmod.empirical.wavelet_variance import wvar
+from stochmod.core.theory import wv_from_psd
 from stochmod_qn import QN
 from stochmod_wn import WN
 

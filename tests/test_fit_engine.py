@@ -16,7 +16,7 @@ import pytest
 
 import stochmod
 import stochmod.fit.weighting  # used as stochmod.fit.weighting below
-from stochmod.errors import EstimationError, SpecError
+from stochmod.core.errors import EstimationError, SpecError
 from stochmod.fit import results as results_module
 from stochmod.fit.engine import (
     BOUND,
@@ -30,7 +30,7 @@ from stochmod.fit.engine import (
 )
 from stochmod.fit.indirect import IndirectGMWMResult
 from stochmod.fit.results import GMWMResult
-from stochmod.fit.weightings import WeightingInput, get_weighting
+from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
 
 FREQ = 100.0
 TRUTH = "GM(beta=2.0, sigma2=1.0) + WN(sigma2=0.5)"
@@ -100,7 +100,7 @@ def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
     # 1.4e-5 s, white noise at 100 Hz), where d wv / d beta is subnormal (1e-312); the unscaled
     # solve of the J-test's projection returned inf and NaN instead of failing. Now the
     # J-test, like the sandwich and the selection's ranking, reports it as not identified
-    rec = stochmod.examples.xsens_mtig(n=2**16)
+    rec = stochmod.data.examples.xsens_mtig(n=2**16)
     start = ("GM(beta=70285.66674261213, sigma2=6.967380202173328e-05) + "
              "GM(beta=36.673130617480645, sigma2=4.166025011863311e-07) + "
              "GM(beta=0.012058965719611538, sigma2=0.0031713053440993975) + "
@@ -175,7 +175,7 @@ def test_model_covariance_evaluates_the_psd_once_at_nodes_shared_by_every_model(
     """The Haar model covariance evaluates the PSD once per call, at nodes that do not depend
     on the model (the gains live in the cached weights), and its value is the same quadratic
     form whatever was computed before: a PSD scaled by c gives c^2 times the covariance."""
-    from stochmod.theory import wv_covariance_from_psd
+    from stochmod.core.theory import wv_covariance_from_psd
 
     n_coef = 2**14 - 2 ** np.arange(1, 11) + 1
     seen: list[np.ndarray] = []
@@ -224,9 +224,9 @@ def test_jtest_exists_exactly_for_the_identified_fits_of_a_lattice() -> None:
     # component has a J-test if and only if it is identified (19 of 63 are not)
     from stochmod.fit.criteria import identified
     from stochmod.fit.results import negligible_components
-    from stochmod.fleet import SerialExecutor
+    from stochmod.workflows.fleet import SerialExecutor
 
-    rec = stochmod.examples.xsens_mtig(n=2**16)
+    rec = stochmod.data.examples.xsens_mtig(n=2**16)
     sel = stochmod.select(rec.column("accel_y"), rec.freq, executor=SerialExecutor(),
                           progress=False)
     plain = {name: fit for name, fit in sel.fits.items() if not negligible_components(fit)}

@@ -14,8 +14,9 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
-from stochmod import fleet
-from stochmod.fleet import STAGES, SerialExecutor, _client, single_threaded
+from stochmod.cli.calibrate import UNIT_STEPS
+from stochmod.workflows import fleet
+from stochmod.workflows.fleet import STAGES, SerialExecutor, _client, single_threaded
 
 FS = 50.0
 
@@ -49,7 +50,7 @@ def test_serial_executor_times_each_stage_and_keeps_results_and_errors():
     # thread, as in a fleet worker: OpenBLAS's helper threads spin for a while after numpy's
     # import or a BLAS call (0.02-0.06 s of CPU during a 0.2-s sleep here), and in this
     # process an earlier test's can still be spinning
-    probe = ("import time\nfrom stochmod.fleet import SerialExecutor\nstages = {}\n"
+    probe = ("import time\nfrom stochmod.workflows.fleet import SerialExecutor\nstages = {}\n"
              "SerialExecutor(stages).submit(time.sleep, 0.2)\nprint(*stages['sleep'])")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                           check=True, env=os.environ | {"OPENBLAS_NUM_THREADS": "1",
@@ -62,7 +63,7 @@ def test_serial_executor_times_each_stage_and_keeps_results_and_errors():
 def test_single_threaded_sets_the_fft_default_to_one(monkeypatch):
     from scipy import fft
 
-    from stochmod.signal.wv_covariance import THREADS_VARIABLE, default_workers
+    from stochmod.empirical.wv_covariance import THREADS_VARIABLE, default_workers
 
     monkeypatch.setenv(THREADS_VARIABLE, "2")
     with single_threaded():
@@ -102,9 +103,9 @@ def test_local_cluster_workers_run_one_thread_without_profiler_malloc_trim_or_fa
 def _worker_warmth() -> dict:
     import sys
 
-    from stochmod.signal import allan_jit, haar_jit, spectrum_jit
+    from stochmod.empirical import allan_jit, haar_jit, spectrum_jit
 
-    return {"parent": os.getppid(), "warm_module": "stochmod._fleet_worker" in sys.modules,
+    return {"parent": os.getppid(), "warm_module": "stochmod.cli._fleet_worker" in sys.modules,
             "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures),
                       len(allan_jit.difference_sumsq.signatures)],
             "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
@@ -118,7 +119,7 @@ def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
 
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
-    with _client(2, None) as client:
+    with _client(2, None, UNIT_STEPS.warm_module) as client:
         server = forkserver._forkserver._forkserver_pid
         setups = list(client.run(_worker_warmth).values())
     assert len(setups) == 2
@@ -132,17 +133,17 @@ def test_local_workers_are_forks_of_a_warm_process_server(monkeypatch):
 
 
 def test_the_process_server_exits_without_the_interpreter_teardown():
-    """The server imports stochmod._fleet_server last; a process that imports it leaves with
+    """The server imports stochmod.workflows.fleet_server last; a process that imports it leaves with
     exit code 0 and without tearing its modules down (a finaliser that would print at teardown
     does not run), so the command does not wait ~0.8 s for the server's teardown."""
-    assert fleet._SERVER_PRELOAD[-1] == "stochmod._fleet_server"
-    code = ("import stochmod._fleet_server, sys\n"
+    assert fleet._SERVER_PRELOAD[-1] == "stochmod.workflows.fleet_server"  # after the warm-up
+    code = ("import stochmod.workflows.fleet_server, sys\n"
             "class Teardown:\n"
             "    def __del__(self):\n"
             "        sys.stdout.write('torn down')\n"
             "keep = Teardown()\n"
             "sys.stdout.write('ran '); sys.stdout.flush()\n")
-    without = subprocess.run([sys.executable, "-c", code.replace("stochmod._fleet_server", "os")],
+    without = subprocess.run([sys.executable, "-c", code.replace("stochmod.workflows.fleet_server", "os")],
                              capture_output=True, text=True, check=True)
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert without.stdout == "ran torn down"  # the finaliser runs at a normal teardown

@@ -1,4 +1,4 @@
-"""The eq. 17 covariance's four-step power spectrum (:mod:`stochmod.signal.four_step`): its
+"""The eq. 17 covariance's four-step power spectrum (:mod:`stochmod.empirical.four_step`): its
 length rule against a brute-force search, its layout and index map against numpy's
 double-precision real transform, and the covariance through it against the direct sum."""
 
@@ -13,10 +13,11 @@ from hypothesis import strategies as st
 from scipy import fft
 from test_wv_covariance import direct_eq17  # eq. 17 by its definition, O(N^2)
 
-from stochmod.signal import four_step, haar_jit
-from stochmod.signal.wv_covariance import wv_covariance
+from stochmod.core import jit
+from stochmod.empirical import four_step, haar_jit
+from stochmod.empirical.wv_covariance import wv_covariance
 
-needs_numba = pytest.mark.skipif(haar_jit.numba is None,
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE,
                                  reason="numba (the 'fast' extra) is not installed")
 
 

@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import stochmod
-from stochmod.errors import InputError
-from stochmod.signal.arch_lm import arch_lm_test
-from stochmod.signal.garch import backcast, fit_garch, garch_loglikelihood, garch_variance, select_garch
+from stochmod.core.errors import InputError
+from stochmod.fit.arch_lm import arch_lm_test
+from stochmod.fit.garch import backcast, fit_garch, garch_loglikelihood, garch_variance, select_garch
 
 
 def simulate_garch(n: int, omega: float, alpha: list[float], beta: list[float], seed: int,
@@ -70,7 +70,7 @@ def test_variance_recursion_matches_a_plain_loop(p: int, q: int, seed: int, scal
 
 
 def test_score_and_information_against_finite_differences() -> None:
-    from stochmod.signal.garch import _Likelihood
+    from stochmod.fit.garch import _Likelihood
 
     x = simulate_garch(3000, 0.05, [0.1, 0.05], [0.7], seed=4)
     y = x / np.sqrt(np.mean(x * x))
@@ -85,7 +85,7 @@ def test_score_and_information_against_finite_differences() -> None:
     # only in expectation; here check symmetry and positive definiteness, and the identity
     # info = 1/2 sum (ds2/s2)(ds2/s2)^T against the outer product of numerical ds2
     assert np.allclose(info, info.T) and np.all(np.linalg.eigvalsh(info) > 0)
-    from stochmod.signal.garch import _recursion
+    from stochmod.fit.garch import _recursion
 
     def s2(th: np.ndarray) -> np.ndarray:
         return _recursion(th[0], th[1:3], th[3:], lik.x2, lik.bc)
@@ -101,7 +101,7 @@ def test_score_and_information_against_finite_differences() -> None:
 def test_observed_information_and_its_z_form_against_finite_differences(p, q, theta) -> None:
     """The Newton matrix: -d(score)/d(theta) by central differences, and its form in the
     unconstrained coordinates z against differences of the z-gradient."""
-    from stochmod.signal.garch import _curvature, _from_theta, _Likelihood, _theta_jacobian, _to_theta
+    from stochmod.fit.garch import _curvature, _from_theta, _Likelihood, _theta_jacobian, _to_theta
 
     x = simulate_garch(3000, 0.05, [0.1, 0.05], [0.7], seed=4)
     lik = _Likelihood(x / np.sqrt(np.mean(x * x)), p, q)

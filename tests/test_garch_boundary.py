@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stochmod.signal import garch
+from stochmod.fit import garch
 from test_garch import simulate_garch  # eq. 7 by a plain loop
 
 

@@ -1,5 +1,5 @@
 """GARCH(p, q)'s two implementations: the compiled one-pass kernel (numba, the ``fast`` extra,
-:mod:`stochmod.signal.garch_jit`) and the numpy/lfilter fallback give the same likelihood,
+:mod:`stochmod.fit.garch_jit`) and the numpy/lfilter fallback give the same likelihood,
 score and information matrices, and the same maxima.
 
 Truth: the numpy path, itself checked against a plain loop and finite differences in
@@ -15,10 +15,12 @@ import sys
 import numpy as np
 import pytest
 
-from stochmod.signal import garch, garch_jit, haar_jit
+from stochmod.core import jit
+from stochmod.fit import garch
+from stochmod.fit import garch_jit
 from test_garch import simulate_garch  # eq. 7 by a plain loop
 
-needs_numba = pytest.mark.skipif(haar_jit.numba is None, reason="numba (the 'fast' extra) is "
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE, reason="numba (the 'fast' extra) is "
                                  "not installed, or STOCHMOD_DISABLE_JIT is set")
 
 
@@ -85,7 +87,7 @@ def test_raised_shares_keep_the_sum_and_the_floor() -> None:
 
 def test_disable_jit_environment_variable_forces_numpy() -> None:
     env = dict(os.environ, STOCHMOD_DISABLE_JIT="1")
-    out = subprocess.run([sys.executable, "-c", "from stochmod.signal import garch_jit; "
+    out = subprocess.run([sys.executable, "-c", "from stochmod.fit import garch_jit; "
                           "print(garch_jit.AVAILABLE)"], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"

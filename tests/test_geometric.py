@@ -1,4 +1,4 @@
-"""stochmod.geometric: Haar WV of a geometric autocovariance, against mpmath.
+"""stochmod.core.geometric: Haar WV of a geometric autocovariance, against mpmath.
 
 References, written independently of the code under test:
 - the exact finite sum ``sum_{|t| < 2m} a_m(|t|) z^|t|`` at 50 digits for m up to 2^12, with
@@ -19,8 +19,8 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from stochmod.errors import InputError
-from stochmod.geometric import (
+from stochmod.core.errors import InputError
+from stochmod.core.geometric import (
     haar_kernel_value,
     haar_wv_geometric,
     haar_wv_geometric_dlog,

@@ -5,7 +5,7 @@ import pytest
 
 import stochmod
 from stochmod import gmwm
-from stochmod.errors import EstimationError, InputError, SpecError
+from stochmod.core.errors import EstimationError, InputError, SpecError
 
 FREQ = 100.0
 
@@ -87,7 +87,7 @@ def test_optimal_weighting_works_at_the_default_levels():
     truth = stochmod.model_from_spec("GM(beta=2.0, sigma2=1e-6) + GM(beta=0.02, sigma2=1e-7) + WN(sigma2=3e-6)", 100.0)
     x = truth.simulate(2**16, rng=3)
     from stochmod.fit.weighting import weighting_from_covariance
-    from stochmod.signal.wv_covariance import wv_covariance
+    from stochmod.empirical.wv_covariance import wv_covariance
 
     with pytest.raises(EstimationError, match="not positive definite"):
         weighting_from_covariance(wv_covariance(x, stochmod.wvar(x, 100.0).wv.size))
@@ -109,7 +109,7 @@ def test_indefinite_covariance_is_refused_not_clipped():
 
 
 def test_ar_ladder_start_spreads_real_roots_over_the_levels():
-    from stochmod.geometric import WV_PEAK_X
+    from stochmod.core.geometric import WV_PEAK_X
 
     wv = 1.0 / 2.0 ** np.arange(17) + 1e-3  # white noise over a flat floor
     (alt,) = stochmod.AR(order=2).start_alternatives(wv, 100.0)

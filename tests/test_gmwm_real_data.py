@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from stochmod.fit.gmwm import gmwm
-from stochmod.model import Model
-from stochmod.registry import get_process
+from stochmod.core.model import Model
+from stochmod.plugin.registry import get_process
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 RECORDING = DATA / "imudata" / "adis_16405_imu1.npz"

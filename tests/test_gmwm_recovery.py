@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import SpecError
+from stochmod.core.errors import SpecError
 from stochmod.fit.gmwm import gmwm
-from stochmod.model import Model
+from stochmod.core.model import Model
 
 FREQ = 100.0
 N = 2**17

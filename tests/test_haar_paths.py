@@ -1,5 +1,5 @@
 """The Haar wavelet variance's two implementations (issues 13 and 14): the pure-numpy path and
-the optional compiled loops (numba, :mod:`stochmod.signal.haar_jit`) give the same numbers,
+the optional compiled loops (numba, :mod:`stochmod.empirical.haar_jit`) give the same numbers,
 and the robust estimator's one-pass Haar levels equal the M-scale of the coefficients."""
 
 from __future__ import annotations
@@ -7,12 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stochmod.signal import haar_jit, modwt
-from stochmod.signal.robust_wv import m_scale, scale_rho
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.core import filters
+from stochmod.core import jit
+from stochmod.empirical import haar_jit, modwt
+from stochmod.empirical.robust_wv import m_scale, scale_rho
+from stochmod.empirical.wavelet_variance import wvar
 
 PATHS = ["numpy", pytest.param("jit", marks=pytest.mark.skipif(
-    haar_jit.numba is None, reason="numba (the 'fast' extra) is not installed"))]
+    not jit.AVAILABLE, reason="numba (the 'fast' extra) is not installed"))]
 
 
 @pytest.fixture(params=PATHS)
@@ -32,10 +34,10 @@ def test_classical_sweeps_match_convolution(path, monkeypatch, chunk, halo, n):
     monkeypatch.setattr(modwt, "_CHUNK", chunk)
     monkeypatch.setattr(modwt, "_HALO", halo)
     x = _signal(n, n)
-    levels = modwt.max_level(n)
+    levels = filters.max_level(n)
     res = wvar(x, 1.0, levels=levels)
     for j in range(1, levels + 1):
-        direct = np.convolve(x, modwt.modwt_filter(j), mode="valid")
+        direct = np.convolve(x, filters.modwt_filter(j), mode="valid")
         assert res.wv[j - 1] == pytest.approx(np.mean(direct**2), rel=1e-11)
 
 
@@ -46,10 +48,10 @@ def test_level_coefficients_match_convolution(path, n):
     compiled level runs in place through blocks of 4096 samples: one, two and three here)."""
     x = _signal(n, n)
     buf = np.full(n, np.nan)
-    levels = modwt.max_level(n)
+    levels = filters.max_level(n)
     seen = 0
     for j, sumsq, m in modwt.pyramid(x, levels, "haar", buf):
-        direct = np.convolve(x, modwt.modwt_filter(j), mode="valid")
+        direct = np.convolve(x, filters.modwt_filter(j), mode="valid")
         assert m == direct.size
         np.testing.assert_allclose(buf[:m], direct, rtol=1e-9, atol=1e-9)
         assert sumsq == pytest.approx(np.sum(direct**2), rel=1e-11)
@@ -57,7 +59,7 @@ def test_level_coefficients_match_convolution(path, n):
     assert seen == levels
 
 
-@pytest.mark.skipif(haar_jit.numba is None, reason="numba is not installed")
+@pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
 def test_compiled_and_numpy_classical_agree_to_rounding(monkeypatch):
     x = _signal(300_001, 3)
     jit = wvar(x, 10.0).wv

@@ -2,10 +2,10 @@
 takes a private name from another public module.
 
 Every module under ``stochmod/`` is parsed (AST) and every import is collected, those inside
-functions (lazy imports) included. ``from stochmod import units`` counts as an import of the
-submodule ``stochmod.units``; ``from stochmod import model_from_spec`` as one of the top-level
-package. Imports under ``if TYPE_CHECKING:`` are annotations: they must respect the layers but
-do not make cycles (they never run). A module may import its own layer or a lower one.
+functions (lazy imports) and under ``if TYPE_CHECKING:`` included. ``from stochmod.core import
+units`` counts as an import of the submodule ``stochmod.core.units``; ``from stochmod import
+gmwm`` as one of the top-level package. A module's layer is its folder; it may import its own
+layer or a lower one, and no chain of imports may come back to where it started.
 """
 
 from __future__ import annotations
@@ -21,38 +21,27 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = REPO / "stochmod"
 
-#: DESIGN.md "Layers", bottom first: (layer name, module prefixes). A module belongs to the
-#: layer of its longest matching prefix; "stochmod" alone is the top-level package.
-LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("bottom", ("stochmod.errors", "stochmod._validation", "stochmod._fields", "stochmod.params",
-                "stochmod.statespace", "stochmod.geometric", "stochmod.reporting",
-                "stochmod.coefficients", "stochmod.timing",
-                # the wavelet filters (imports only the bottom): the contract's theory, the
-                # generic WV fallbacks of Process, needs their squared gains
-                "stochmod.signal.modwt", "stochmod.signal.haar_jit",
-                "stochmod.signal.spectrum_jit")),
-    # the contract and the composer; units (conversions) and io (the Recording container and
-    # the readers' dispatch) sit with them, so that every estimator may take a Recording
-    ("contract", ("stochmod.hookspecs", "stochmod.registry", "stochmod.process", "stochmod.model",
-                  "stochmod.theory", "stochmod.units", "stochmod.io", "stochmod.lattice")),
-    ("signal", ("stochmod.signal", "stochmod.signal.garch_jit", "stochmod.signal.four_step")),
-    ("fit", ("stochmod.fit",)),
-    # the classical pipelines that end in models, navigation, combiners, readers
-    ("applications", ("stochmod.nav", "stochmod.classical", "stochmod.combination",
-                      "stochmod.equivalence",
-                      "stochmod.datasheet", "stochmod.exports", "stochmod.triad", "stochmod.report")),
-    ("top", ("stochmod", "stochmod.cli", "stochmod.plots", "stochmod.examples",
-             "stochmod.testing", "stochmod.combiner_checks", "stochmod.examples_redundant",
-             "stochmod.fleet", "stochmod._fleet_worker",
-             "stochmod._fleet_server")),
+#: DESIGN.md "Layers", bottom first: a module's layer is its folder under ``stochmod/``
+#: (``stochmod.fit.gmwm`` is in ``fit``); ``nav`` and ``redundant`` share a rank (neither
+#: imports the other), as do ``workflows`` and ``testing`` (the conformance kits fit models).
+#: The top-level package ``stochmod`` sits above everything it re-exports.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("core",),
+    ("plugin",),
+    ("io",),
+    ("data",),
+    ("empirical",),
+    ("fit",),
+    ("nav", "redundant"),
+    ("output",),
+    ("workflows", "testing"),
+    ("cli",),
 )
+TOP = len(LAYERS)
 
 #: Lazy imports the issue allows: an operator returning an object of a module that imports
 #: this one (``Process.__add__`` / ``__mul__`` return a Model). They must stay inside functions.
-OPERATOR_IMPORTS = {("stochmod.process", "stochmod.model")}
-
-
-
+OPERATOR_IMPORTS = {("stochmod.core.process", "stochmod.core.model")}
 
 
 @attrs.frozen
@@ -124,16 +113,18 @@ def _core_edges() -> list[Edge]:
 
 
 def _layer(module: str) -> int:
-    best, rank = -1, None
-    for i, (_, prefixes) in enumerate(LAYERS):
-        for p in prefixes:
-            hit = module == p if p == "stochmod" else (module == p or module.startswith(p + "."))
-            if hit and len(p) > best:
-                best, rank = len(p), i
-    if rank is None:
-        raise AssertionError(f"module {module} has no layer: add it to LAYERS in {__file__} "
-                             "(and to docs/architecture.md)")
-    return rank
+    parts = module.split(".")
+    if parts == ["stochmod"] or (len(parts) == 2 and (PACKAGE / f"{parts[1]}.py").is_file()):
+        return TOP  # the package and its root modules (the SDK) re-export the layers
+    for rank, folders in enumerate(LAYERS):
+        if parts[1] in folders:
+            return rank
+    raise AssertionError(f"module {module} is in no layer: stochmod/{parts[1]} is not a folder of "
+                         f"DESIGN.md 'Layers' (LAYERS in {__file__})")
+
+
+def _layer_name(rank: int) -> str:
+    return "stochmod" if rank == TOP else "/".join(LAYERS[rank])
 
 
 def _where(e: Edge) -> str:
@@ -144,11 +135,11 @@ def _where(e: Edge) -> str:
 def test_the_walk_sees_lazy_and_type_only_imports() -> None:
     edges = {(e.source, e.target): e for e in _core_edges()}
     assert len({e.source for e in edges.values()}) > 40  # every module was parsed
-    operator = edges[("stochmod.process", "stochmod.model")]
+    operator = edges[("stochmod.core.process", "stochmod.core.model")]
     assert operator.lazy and not operator.type_only
-    spec = edges[("stochmod.hookspecs", "stochmod.process")]
+    spec = edges[("stochmod.plugin.hookspecs", "stochmod.core.process")]
     assert spec.type_only
-    top = edges[("stochmod", "stochmod.registry")]
+    top = edges[("stochmod", "stochmod.plugin.registry")]
     assert not top.lazy and not top.type_only
     # the top-level package imports its re-exports on first access (stochmod.__getattr__);
     # its TYPE_CHECKING block names them for type checkers
@@ -164,15 +155,15 @@ def test_imports_point_down_the_layers() -> None:
     bad = []
     for e in _core_edges():
         if _layer(e.target) > _layer(e.source):
-            bad.append(f"{_where(e)}: {LAYERS[_layer(e.source)][0]} imports "
-                       f"{LAYERS[_layer(e.target)][0]}")
+            bad.append(f"{_where(e)}: {_layer_name(_layer(e.source))} imports "
+                       f"{_layer_name(_layer(e.target))}")
     assert not bad, "imports against DESIGN.md 'Layers':\n" + "\n".join(bad)
 
 
-def test_no_import_cycles_lazy_imports_included() -> None:
+def test_no_import_cycles_lazy_and_type_only_imports_included() -> None:
     graph = nx.DiGraph()
     for e in _core_edges():
-        if e.type_only or e.source == e.target:
+        if e.source == e.target:
             continue
         if (e.source, e.target) in OPERATOR_IMPORTS:
             assert e.lazy, f"{_where(e)} is allowed only inside the operator that needs it"
@@ -214,11 +205,12 @@ def test_the_core_never_imports_a_plugin_package() -> None:
 
 @pytest.mark.parametrize("code, target, lazy, type_only", [
     ("import stochmod.fit.gmwm\n", "stochmod.fit.gmwm", False, False),
-    ("def f():\n    from stochmod import units\n", "stochmod.units", True, False),
-    ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from stochmod.model import Model\n",
-     "stochmod.model", False, True),
+    ("def f():\n    from stochmod.core import units\n", "stochmod.core.units", True, False),
+    ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from stochmod.core.model import Model\n",
+     "stochmod.core.model", False, True),
     ("class A:\n    def f(self):\n        from stochmod import model_from_spec\n", "stochmod", True, False),
     ("from .weighting import chi2_variance\n", "stochmod.fit.weighting", False, False),
+    ("from stochmod import sdk\n", "stochmod.sdk", False, False),
 ])
 def test_edges_are_resolved(tmp_path: Path, code: str, target: str, lazy: bool, type_only: bool) -> None:
     root = tmp_path / "stochmod"

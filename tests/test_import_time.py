@@ -35,19 +35,31 @@ def test_package_import_loads_no_heavy_module(code: str) -> None:
 def test_lazy_names_resolve_to_their_modules() -> None:
     # the probe must see the heavy modules once a name that needs them is used, else the
     # test above could pass on a broken probe
-    loaded = _loaded("import stochmod\nstochmod.fit_arma\nstochmod.select\nstochmod.psd_reading")
+    loaded = _loaded("import stochmod\nstochmod.fit_garch\nstochmod.select\nstochmod.psd")
     assert loaded["scipy.signal"] and loaded["networkx"] and loaded["scipy.stats"]
     import stochmod
+    from stochmod.fit.garch import fit_garch
     from stochmod.fit.selection import select
-    from stochmod.signal.arma import fit_arma
 
-    assert stochmod.select is select and stochmod.fit_arma is fit_arma
-    assert stochmod.examples.__name__ == "stochmod.examples"
-    assert stochmod.datasheet.__name__ == "stochmod.datasheet"  # any submodule, on first use
+    assert stochmod.select is select and stochmod.fit_garch is fit_garch
     missing = [n for n in stochmod.__all__ if not hasattr(stochmod, n)]
     assert missing == []
-    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
-        stochmod.not_a_name  # noqa: B018
+    assert len(stochmod.__all__) <= 26  # a small API: the rest through its subpackage
+    # no module is reached through the package by its name alone
+    for name in ("not_a_name", "units", "datasheet", "fit_arma", "lowercase_thing"):
+        with pytest.raises(AttributeError, match=f"no attribute '{name}'"):
+            getattr(stochmod, name)
+
+
+def test_the_sdk_loads_no_heavy_module_until_a_lazy_name_is_used() -> None:
+    # numba is the compiler of the families' kernels, which a plugin imports with the SDK
+    loaded = _loaded("import stochmod.sdk")
+    assert not (loaded["scipy.signal"] or loaded["scipy.stats"] or loaded["networkx"])
+    import stochmod.sdk as sdk
+    from stochmod.fit.garch import fit_garch
+
+    assert sdk.fit_garch is fit_garch
+    assert [n for n in sdk.__all__ if not hasattr(sdk, n)] == []
 
 
 def test_a_command_imports_its_own_module_only() -> None:
@@ -64,12 +76,12 @@ def test_a_command_imports_its_own_module_only() -> None:
 
 
 def test_calibrate_and_every_plugin_load_without_scipy_signal_or_stats() -> None:
-    # a fleet worker's start (stochmod._fleet_worker) before its warm-up: the calibrate command
+    # a fleet worker's start (stochmod.cli._fleet_worker) before its warm-up: the calibrate command
     # and every registered plugin; scipy.signal is for simulations and the classical readings,
     # scipy.stats (0.4 s) for the classical readings' tests (calibrate's p-values and
     # intervals take scipy.special's chdtrc and ndtri, which scipy.stats' chi2 and norm call)
     code = ("from stochmod.cli import _parser_for\n_parser_for(['calibrate'])\n"
-            "from stochmod.registry import combiners, processes, readers\n"
+            "from stochmod.plugin.registry import combiners, processes, readers\n"
             "assert len(processes()) >= 7 and readers() and len(combiners()) >= 3")
     loaded = _loaded(code)
     assert loaded["scipy.signal"] is False and loaded["scipy.stats"] is False
@@ -82,12 +94,14 @@ def test_type_checking_block_names_the_lazy_names() -> None:
     import inspect
 
     import stochmod
+    import stochmod.sdk
 
-    tree = ast.parse(inspect.getsource(stochmod))
-    block = next(n for n in tree.body if isinstance(n, ast.If)
-                 and getattr(n.test, "id", None) == "TYPE_CHECKING")
-    typed: dict[str, set[str]] = {}
-    for node in block.body:
-        assert isinstance(node, ast.ImportFrom)
-        typed.setdefault(node.module or "", set()).update(a.name for a in node.names)
-    assert typed == {m: set(names) for m, names in stochmod._LAZY.items()}
+    for module in (stochmod, stochmod.sdk):
+        tree = ast.parse(inspect.getsource(module))
+        block = next(n for n in tree.body if isinstance(n, ast.If)
+                     and getattr(n.test, "id", None) == "TYPE_CHECKING")
+        typed: dict[str, set[str]] = {}
+        for node in block.body:
+            assert isinstance(node, ast.ImportFrom)
+            typed.setdefault(node.module or "", set()).update(a.name for a in node.names)
+        assert typed == {m: set(names) for m, names in module._LAZY.items()}

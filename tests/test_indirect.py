@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError, SpecError
+from stochmod.core.errors import InputError, SpecError
+from stochmod.fit.gmwm import GMWMResult
 from stochmod.fit.indirect import IndirectGMWMResult, SimulatedBinding, plan_binding
-from stochmod.process import Process, has_theoretical_wv
+from stochmod.core.process import Process, has_theoretical_wv
 
 FREQ = 100.0
 GM, WN, BI = (stochmod.get_process(n) for n in ("GM", "WN", "BI"))
@@ -110,7 +111,7 @@ def test_gm_plus_wn_simulated_agrees_with_analytic_within_monte_carlo_error(gm_w
     truth, x = gm_wn_data
     an = stochmod.gmwm(x, "GM+WN", FREQ)
     sim = stochmod.gmwm(x, "GM+WN", FREQ, binding="simulated", R=8, n_random=16, n_starts=2)
-    assert type(an) is stochmod.GMWMResult and isinstance(sim, IndirectGMWMResult)
+    assert type(an) is GMWMResult and isinstance(sim, IndirectGMWMResult)
     assert sim.simulation.n_sim == 8 * x.size
     mc = _within_mc_error(sim, an)
     # every component simulated: V_sim ~ V N / n_sim, so the Monte Carlo sd is about

@@ -1,4 +1,4 @@
-"""stochmod._validation: the finiteness check of every signal, against numpy's isfinite."""
+"""stochmod.core.checks: the finiteness check of every signal, against numpy's isfinite."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from stochmod._validation import as_signal, check_freq
-from stochmod.errors import InputError
+from stochmod.core.checks import as_signal, check_freq
+from stochmod.core.errors import InputError
 
 # every float64, the extremes, infinities and NaN included: sums that overflow, cancel or
 # propagate NaN all occur

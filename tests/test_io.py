@@ -1,4 +1,4 @@
-"""Tests of stochmod.io.read_recording: every value read is compared with the array written
+"""Tests of stochmod.io.recording.read_recording: every value read is compared with the array written
 to the file by the test (numpy's own writers and plain text), and every bad file raises
 InputError naming the problem."""
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stochmod.errors import InputError
-from stochmod.io import Recording, read_recording
+from stochmod.core.errors import InputError
+from stochmod.io.recording import Recording, read_recording
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 RNG = np.random.default_rng(12)

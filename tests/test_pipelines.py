@@ -1,4 +1,4 @@
-"""Classical pipelines (stochmod.classical.pipelines) on seeded simulations with known parameters.
+"""Classical pipelines (stochmod.fit.classical.pipelines) on seeded simulations with known parameters.
 
 Tolerances: ``|bias| + 4 sd`` of the estimate / truth over 100 seeded replications of the same
 case, or the largest deviation seen in them if larger (``python bench/compare_methods.py
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import stochmod as sm
-from stochmod.errors import EstimationError, InputError, SpecError
-from stochmod.classical import ar_model, pipelines
-from stochmod.signal.ar_fit import fit_ar
-from stochmod.classical.pipelines import (
+from stochmod.core.errors import EstimationError, InputError, SpecError
+from stochmod.fit.classical import ar_model, pipelines
+from stochmod.empirical.ar_fit import fit_ar
+from stochmod.fit.classical.pipelines import (
     acf_gm_model,
     av_model,
     avwd_model,

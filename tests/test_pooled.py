@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.combination import synthetic_wv
-from stochmod.errors import InputError
-from stochmod.io import read_recording
-from stochmod.signal.pooled import pooled_wvar
+from stochmod.redundant.combination import synthetic_wv
+from stochmod.core.errors import InputError
+from stochmod.io.recording import read_recording
+from stochmod.empirical.pooled import pooled_wvar
 
 FREQ = 100.0
 TRUE = "GM(beta=0.5, sigma2=1e-6) + WN(sigma2=1e-4)"
@@ -76,7 +76,7 @@ def test_select_accepts_replicates() -> None:
     res = stochmod.select(xs, FREQ, candidates=["WN", "GM+WN", "2*GM+WN"], executor=None)
     assert res.best.model.name == "GM+WN"
     assert res.empirical.n == 3 * 2**15
-    from stochmod.fit.pooled import pooled_wv
+    from stochmod.fit.replicates import pooled_wv
 
     assert all(f.pooled.test == pooled_wv(xs, FREQ).test for f in res.fits.values())
 
@@ -153,7 +153,7 @@ def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
 
 
 def test_replicates_of_different_lengths_pool_on_the_levels_each_has() -> None:
-    from stochmod.signal.wv_covariance import wv_covariance
+    from stochmod.empirical.wv_covariance import wv_covariance
 
     xs = [np.random.default_rng(10 + i).standard_normal(n) for i, n in enumerate((5000, 300, 9000))]
     pooled = pooled_wvar(xs, FREQ)

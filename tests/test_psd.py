@@ -12,15 +12,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stochmod.classical import psd_reading_model
-from stochmod.errors import EstimationError, InputError
-from stochmod.signal.psd import (
+from stochmod.fit.classical import psd_reading_model
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.empirical.psd import (
     _bin_correlation,
     log_bin,
     psd,
     psd_reading,
 )
-from stochmod.units import BI_FACTOR
+from stochmod.core.units import BI_FACTOR
 
 FREQ = 100.0
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stochmod.errors import InputError
-from stochmod.io import read_recording
-from stochmod.registry import readers
+from stochmod.core.errors import InputError
+from stochmod.io.recording import read_recording
+from stochmod.plugin.registry import readers
 from stochmod.testing import check_reader
 
 pytest.importorskip("rosbags")
@@ -117,7 +117,7 @@ def test_cli_reads_a_bag_by_topic(tmp_path: Path, capsys: pytest.CaptureFixture[
     import json
 
     from stochmod.cli import main
-    from stochmod.signal.wavelet_variance import wvar
+    from stochmod.empirical.wavelet_variance import wvar
 
     stamps, gyro, accel = _imu(4096, seed=6)
     path = write_imu_bag(tmp_path / "cli", stamps, gyro, accel, topic="/imu/data")

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from _ulog_writer import Topic, write_ulog
 
-from stochmod.errors import InputError
-from stochmod.io import read_recording
-from stochmod.registry import readers
+from stochmod.core.errors import InputError
+from stochmod.io.recording import read_recording
+from stochmod.plugin.registry import readers
 from stochmod.testing import check_reader
 
 pytest.importorskip("pyulog")

@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 import stochmod
+from stochmod import sdk
 from stochmod.cli import main
-from stochmod.errors import InputError, StochmodError
-from stochmod.io import Reader, Recording, read_recording
-from stochmod.registry import reader_names, readers
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.core.errors import InputError, StochmodError
+from stochmod.io.recording import Reader, Recording, read_recording
+from stochmod.plugin.registry import reader_names, readers
+from stochmod.empirical.wavelet_variance import wvar
 from stochmod.testing import check_reader
 
 RNG = np.random.default_rng(7)
@@ -84,7 +85,7 @@ class _Plugin:
     def __init__(self, *found: object) -> None:
         self.found = list(found)
 
-    @stochmod.hookimpl
+    @sdk.hookimpl
     def stochmod_readers(self) -> list[object]:
         return self.found
 

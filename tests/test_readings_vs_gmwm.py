@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 
 import stochmod as sm
-from stochmod.signal.acf import acf
-from stochmod.signal.allan_reading import allan_reading
-from stochmod.signal.psd import psd_reading
-from stochmod.units import STANDARD_GRAVITY
+from stochmod.empirical.acf import acf
+from stochmod.empirical.allan_reading import allan_reading
+from stochmod.empirical.psd import psd_reading
+from stochmod.core.units import STANDARD_GRAVITY
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 FILE = DATA / "imudata" / "adis_16405_imu1.npz"

@@ -13,7 +13,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
-from stochmod.fleet import MIN_UNITS, OUTLIER_Z, robust_z
+from stochmod.workflows.fleet import MIN_UNITS, OUTLIER_Z, robust_z
 
 FS = 50.0
 
@@ -102,12 +102,12 @@ def test_fleet_on_a_local_cluster_equals_the_serial_run(tmp_path, capsys):
 
 
 def test_one_file_on_two_workers_equals_the_single_file_command(tmp_path, capsys):
-    """A fleet runs a unit's columns as tasks of their own (stochmod.fleet.UnitSteps): a
+    """A fleet runs a unit's columns as tasks of their own (stochmod.workflows.fleet.UnitSteps): a
     one-file fleet on two workers gives the single-file command's results, whose selection
     takes every column at once (in a pool of two processes), and spreads the columns over both
     workers."""
     pytest.importorskip("distributed")
-    from stochmod.examples import XSENS_COLUMNS, xsens_mtig
+    from stochmod.data.examples import XSENS_COLUMNS, xsens_mtig
 
     rec = xsens_mtig(n=2**13, seed=5)
     path = tmp_path / "imu.npz"
@@ -150,7 +150,7 @@ def test_dask_weighs_a_unit_by_its_samples(tmp_path):
 
     from stochmod.cli import _parser_for
     from stochmod.cli.calibrate import read_unit
-    from stochmod.fleet import SerialExecutor
+    from stochmod.workflows.fleet import SerialExecutor
 
     _save(tmp_path / "u.npz", 1e-3, seed=3, n=2**14)
     argv = ["calibrate", str(tmp_path / "u.npz")]

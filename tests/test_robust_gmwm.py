@@ -10,7 +10,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main as cli_main
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.fit.gmwm import gmwm
 from stochmod.fit.selection import select
 
@@ -118,7 +118,7 @@ def test_robust_weighting_uses_the_robust_variances():
     V = opt.wv_covariance
     assert np.allclose(np.linalg.inv(opt.omega), V, rtol=1e-8, atol=1e-12 * np.abs(V).max())
     # V is scaled by kappa = 2 from eq. 17 on the clipped coefficients
-    from stochmod.signal.wv_covariance import wv_covariance
+    from stochmod.empirical.wv_covariance import wv_covariance
 
     raw = wv_covariance(x, emp.wv.size, clip=emp.tuning * np.sqrt(emp.wv))
     assert V[0, 0] == pytest.approx(2.0 * raw[0, 0], rel=1e-10)

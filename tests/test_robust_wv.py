@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 from scipy import integrate, stats
 
 import stochmod
-from stochmod.errors import InputError
-from stochmod.signal.robust_wv import m_scale, sandwich_ratio, scale_rho
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.core.errors import InputError
+from stochmod.empirical.robust_wv import m_scale, sandwich_ratio, scale_rho
+from stochmod.empirical.wavelet_variance import wvar
 
 PHI = stats.norm.pdf
 # quad reports round-off near its 1e-12 target on the kinked integrands; accuracy is asserted
@@ -275,7 +275,7 @@ def test_no_root_falls_back_to_the_classical_level():
     """A third of the coefficients zero, the rest equal: mean chi <= chi_max / 3 < delta for
     every v, so the M-estimate does not exist; at a deep random-walk level (few effectively
     independent coefficients) the same happens and the level keeps the classical estimate."""
-    from stochmod.signal.robust_wv import NoRootError
+    from stochmod.empirical.robust_wv import NoRootError
 
     chi = scale_rho(0.6)
     u = np.linspace(1e-4, chi.c**2, 20001)
@@ -319,7 +319,7 @@ def test_real_gyro_without_outliers_agrees_with_classical():
 def test_single_precision_power_sums_agree_with_double(monkeypatch):
     """Long levels sum powers in float32 (speed): the estimate moves by < 1e-6 relative,
     far below its sampling error (> 1e-3 here)."""
-    from stochmod.signal import robust_wv
+    from stochmod.empirical import robust_wv
 
     rng = np.random.default_rng(12)
     w = rng.standard_normal(1 << 18) * 1e-3

@@ -8,7 +8,7 @@ Seeds (``/work/shared/seeds``; line numbers below are those of the files named):
 - G  = gonzalez2015-unified-ins-gps-model.txt, Table III and eqs. 20-24.
 
 Truth: the papers' own equations written out here with the tables' numbers and their explicit
-unit factors (3600, pi/180), never through stochmod.units; the exact discretisation
+unit factors (3600, pi/180), never through stochmod.core.units; the exact discretisation
 ``exp(-dt/Tc)``, ``sigma^2 (1 - exp(-2 dt/Tc))``, ``K^2 dt`` as closed forms; composed steps by a
 plain loop of ``x <- Phi x + w``. The papers' first-order forms (``I + F dt``) are compared
 with stated bounds: ``0 <= exp(-x) - (1 - x) <= x^2/2`` and
@@ -30,10 +30,11 @@ from hypothesis import strategies as st
 from scipy.linalg import block_diag
 
 import stochmod
-from stochmod import units as U
-from stochmod.errors import DomainError, InputError
-from stochmod.model import AxesAugmentation, Model, augment_axes
-from stochmod.statespace import compose_steps
+from stochmod.core import units as U
+from stochmod_gm import discrete as gm_discrete
+from stochmod.core.errors import DomainError, InputError
+from stochmod.core.model import AxesAugmentation, Model, augment_axes
+from stochmod.core.statespace import compose_steps
 
 FREQ = 100.0  # Q line 650: "The IMU was configured with a sampling frequency of 100 Hz"
 DT = 0.01  # Q line 1505: "the sampling time of the INS i.e., 0.01 s"
@@ -64,7 +65,7 @@ GYRO = {
 
 
 def _acc_model(axis: str, with_rw: bool = True) -> Model:
-    """Q eq. 19 (ase = WN(N) + 1st GM(B) + RW(K)), built with stochmod.units and eq. 29's 0.664."""
+    """Q eq. 19 (ase = WN(N) + 1st GM(B) + RW(K)), built with stochmod.core.units and eq. 29's 0.664."""
     n, b, k, tc = ACC[axis]
     WN, GM, RW = _family("WN"), _family("GM"), _family("RW")
     model = WN.from_density(U.to_si(n, "m/s/sqrt(h)", kind="N"), FREQ) + GM.from_bias_instability(
@@ -414,7 +415,7 @@ def test_gonzalez_eq21_q_with_the_correct_gm_psd(imu: str, freq: float) -> None:
     correct = np.concatenate([n2, 2 * sigma**2 / tau])
     got = np.concatenate([aug.white_var / freq, np.diag(aug.block.Qc)])
     np.testing.assert_allclose(got, correct, rtol=1e-13, atol=0)
-    printed = U.gm_driving_psd(sigma, tau, form="gonzalez2015")
+    printed = gm_discrete.gm_driving_psd(sigma, tau, form="gonzalez2015")
     np.testing.assert_allclose(printed, sigma**2 * tau, rtol=1e-15)
     # the printed PSD is tau^2 / 2 times too large (3.1e4 ... 2.7e5 for these IMUs' gyros)
     np.testing.assert_allclose(printed / np.diag(aug.block.Qc), tau**2 / 2, rtol=1e-13)
@@ -443,7 +444,7 @@ def test_gonzalez_alg1_first_order_against_exact(imu: str, dt_g: float) -> None:
     assert np.all(gap_q >= -1e-13 * alg1_q) and np.all(gap_q <= 2 * x**2 * sigma**2 * (1 + 1e-12))
     # with the printed PSD, Q_k is tau^2 / 2 times the exact value to first order in x:
     # ratio / (tau^2/2) = 2x / (1 - e^-2x) = 1 + x + x^2/3 - ..., in [1, 1 + x (1 + x)]
-    printed_q = U.gm_driving_psd(sigma, tau, form="gonzalez2015") * dt_g
+    printed_q = gm_discrete.gm_driving_psd(sigma, tau, form="gonzalez2015") * dt_g
     ratio = printed_q / np.diag(aug.Q) / (tau**2 / 2)
     assert np.all(ratio >= 1 - 1e-13) and np.all(ratio - 1 <= x * (1 + x))
     assert np.min(printed_q / np.diag(aug.Q)) > 500  # smallest: XSENS1 accel X, 33.4^2/2 = 557.8

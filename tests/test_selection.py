@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError, SpecError, UnknownProcessError
+from stochmod.core.errors import InputError, SpecError, UnknownProcessError
 from stochmod.fit.criteria import WVIC, criterion_names, get_criterion, identified, optimism
 from stochmod.fit.gmwm import gmwm
 from stochmod.fit.selection import SelectionResult, candidate_lattice, nested_graph, select
-from stochmod.hookspecs import hookimpl
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.empirical.wavelet_variance import wvar
 
 FREQ = 100.0
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"

@@ -1,6 +1,6 @@
 """The eq. 17 covariance's two power-spectrum paths: scipy's real transform (pure numpy/scipy)
 and the complex transform of sample pairs with the compiled split
-(:mod:`stochmod.signal.spectrum_jit`, through :mod:`stochmod.signal.four_step`), each against
+(:mod:`stochmod.empirical.spectrum_jit`, through :mod:`stochmod.empirical.four_step`), each against
 an independent double-precision computation."""
 
 from __future__ import annotations
@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from stochmod.signal import four_step, haar_jit, spectrum_jit
+from stochmod.core import jit
+from stochmod.empirical import four_step, haar_jit, spectrum_jit
 
-needs_numba = pytest.mark.skipif(haar_jit.numba is None,
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE,
                                  reason="numba (the 'fast' extra) is not installed")
 
 

@@ -25,9 +25,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import stochmod
-from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.fit.weightings import get_weighting, weighting_names
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.core.errors import DomainError, InputError, SpecError
+from stochmod.fit.weighting_plugins import get_weighting, weighting_names
+from stochmod.empirical.wavelet_variance import wvar
 from stochmod.testing import check_family, check_weighting
 
 FREQ = 100.0
@@ -196,8 +196,8 @@ def test_the_relative_weighting_passes_the_conformance_kit(ma1: ModuleType) -> N
 
 
 def test_third_party_reader_is_dispatched_and_conforms(ma1: ModuleType, tmp_path: Path) -> None:
-    from stochmod.io import read_recording
-    from stochmod.registry import readers
+    from stochmod.io.recording import read_recording
+    from stochmod.plugin.registry import readers
     from stochmod.testing import check_reader
 
     rng = np.random.default_rng(9)

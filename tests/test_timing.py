@@ -1,4 +1,4 @@
-"""Tests of stochmod.timing.analyse_timing: rate, gaps and jitter against the stamps' truth.
+"""Tests of stochmod.io.timing.analyse_timing: rate, gaps and jitter against the stamps' truth.
 
 Truth: stamps built from a known rate with known samples removed (the gaps are the runs of
 removed indices, computed here from the kept indices), and the jitter as the rms residual of
@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stochmod.errors import InputError
-from stochmod.timing import analyse_timing
+from stochmod.core.errors import InputError
+from stochmod.io.timing import analyse_timing
 
 
 def _gaps_from_kept(kept: np.ndarray) -> list[tuple[int, int]]:

@@ -1,4 +1,4 @@
-"""stochmod.triad: one model structure for the three axes of a sensor (summed criterion)."""
+"""stochmod.fit.triad: one model structure for the three axes of a sensor (summed criterion)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError
-from stochmod.triad import equivalences, group_triads, triad_select
+from stochmod.core.errors import InputError
+from stochmod.fit.triad import equivalences, group_triads, triad_select
 
 FS = 100.0
 N = 2**15

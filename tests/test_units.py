@@ -1,4 +1,4 @@
-"""Tests of stochmod.units: unit parsing and conversion, per-sample values, CEP.
+"""Tests of stochmod.core.units: unit parsing and conversion, per-sample values, CEP.
 
 Truth comes from first principles computed here with mpmath (1 deg = pi/180 rad, 1 h = 3600 s,
 g0 = 9.80665 m/s^2 exactly), brute-force quadratic forms, statsmodels (AR(1) autocovariance),
@@ -19,8 +19,9 @@ from hypothesis import strategies as st
 from statsmodels.tsa.arima_process import arma_acovf
 
 import stochmod as sm
-from stochmod import units as U
-from stochmod.errors import DomainError, InputError
+from stochmod.core import units as U
+from stochmod_gm import discrete as gm_discrete
+from stochmod.core.errors import DomainError, InputError
 
 mp.mp.dps = 40
 DEG = mp.pi / 180  # rad per degree, from first principles
@@ -280,7 +281,7 @@ def test_bias_instability_floor_round_trip(b: float, factor: float) -> None:
 @settings(max_examples=40, deadline=None)
 @given(sigma=st.floats(1e-8, 1e3), tc=st.floats(0.05, 1e3), fs=st.floats(1.0, 1000.0))
 def test_exact_gm_has_the_continuous_autocovariance(sigma: float, tc: float, fs: float) -> None:
-    gm = U.gm_discretize(sigma, tc, fs)
+    gm = gm_discrete.gm_discretize(sigma, tc, fs)
     lags = np.arange(8)
     # peer: statsmodels' AR(1) autocovariance with the innovation variance q
     acov = arma_acovf(np.array([1.0, -gm.phi]), np.array([1.0]), nobs=lags.size, sigma2=gm.q)
@@ -296,10 +297,10 @@ def test_exact_gm_innovation_is_the_integrated_driving_psd(
 ) -> None:
     # continuous GM dx = -x/Tc dt + w, PSD of w = qc: the variance of the step's new part is
     # int_0^dt qc e^{-2s/Tc} ds, and the stationary variance is the same integral to infinity.
-    qc = U.gm_driving_psd(sigma, tc)
+    qc = gm_discrete.gm_driving_psd(sigma, tc)
     step = mp.quad(lambda s: qc * mp.exp(-2 * s / tc), [0, 1 / fs])
     total = mp.quad(lambda s: qc * mp.exp(-2 * s / tc), [0, mp.inf])
-    assert U.gm_discretize(sigma, tc, fs).q == pytest.approx(float(step), rel=1e-12)
+    assert gm_discrete.gm_discretize(sigma, tc, fs).q == pytest.approx(float(step), rel=1e-12)
     assert float(total) == pytest.approx(sigma**2, rel=1e-12)
 
 
@@ -307,8 +308,8 @@ def test_exact_gm_innovation_is_the_integrated_driving_psd(
 @given(sigma=st.floats(1e-100, 1e100), x=st.floats(1e-9, 700.0), fs=FS)
 def test_gm_round_trip(sigma: float, x: float, fs: float) -> None:
     tc = 1.0 / (x * fs)  # x = beta / fs
-    gm = U.gm_discretize(sigma, tc, fs)
-    back = U.gm_from_discrete(gm.phi, gm.q, fs)
+    gm = gm_discrete.gm_discretize(sigma, tc, fs)
+    back = gm_discrete.gm_from_discrete(gm.phi, gm.q, fs)
     # phi = exp(-x) carries x only to about eps / x relatively: that is the condition of the inverse
     tol = 1e-12 + 4 * np.finfo(float).eps / min(x, 1.0)
     assert back.tc == pytest.approx(tc, rel=tol)
@@ -318,11 +319,11 @@ def test_gm_round_trip(sigma: float, x: float, fs: float) -> None:
 def test_gm_first_order_forms_of_the_seeds() -> None:
     sigma, tc, fs = 0.01, 4.56, 100.0
     dt, beta = 1.0 / fs, 1.0 / tc
-    euler = U.gm_discretize(sigma, tc, fs, method="euler")
+    euler = gm_discrete.gm_discretize(sigma, tc, fs, method="euler")
     # Q eq. 2 (x_k = (1 - beta dt) x_k-1) and eq. 4 (sigma_w^2 = 2 beta sigma^2) times dt
     assert euler.phi == pytest.approx(1.0 - beta * dt, rel=1e-15)
     assert euler.q == pytest.approx(2.0 * beta * sigma**2 * dt, rel=1e-15)
-    mixed = U.gm_discretize(sigma, tc, fs, method="quinchia2013")
+    mixed = gm_discrete.gm_discretize(sigma, tc, fs, method="quinchia2013")
     # Q eq. 3 / Appendix eq. 28: sigma_w^2 = sigma^2 (1 - exp(-2 dt / Tc)), with eq. 2's phi
     assert mixed.phi == euler.phi
     assert mixed.q == pytest.approx(sigma**2 * (1.0 - math.exp(-2.0 * dt / tc)), rel=1e-14)
@@ -339,17 +340,17 @@ def test_gonzalez_printed_gm_psd_is_not_the_driving_psd() -> None:
     # G eq. 22a (line 307): n^2 = sigma^2 * tau.  XBOW1 gyro X, G Table III (lines 449, 455):
     # dbg = 3.427e-3 deg/s, tau = 250.7 s.  The driving PSD giving var = sigma^2 is 2 sigma^2 / tau.
     sigma, tau = U.to_si(3.427e-3, "deg/s"), 250.7
-    printed = U.gm_driving_psd(sigma, tau, form="gonzalez2015")
+    printed = gm_discrete.gm_driving_psd(sigma, tau, form="gonzalez2015")
     assert printed == pytest.approx((3.427e-3 * math.pi / 180) ** 2 * 250.7, rel=1e-14)
     def stationary(qc: float) -> float:
         return float(mp.quad(lambda s: qc * mp.exp(-2 * s / tau), [0, mp.inf]))
 
-    assert stationary(U.gm_driving_psd(sigma, tau)) == pytest.approx(sigma**2, rel=1e-12)
+    assert stationary(gm_discrete.gm_driving_psd(sigma, tau)) == pytest.approx(sigma**2, rel=1e-12)
     assert stationary(printed) == pytest.approx(sigma**2 * tau**2 / 2, rel=1e-12)
 
 
 def test_gm_summary_and_arrays() -> None:
-    gm = U.gm_discretize([0.1, 0.2], [10.0, 20.0], 100.0)
+    gm = gm_discrete.gm_discretize([0.1, 0.2], [10.0, 20.0], 100.0)
     assert isinstance(gm.phi, np.ndarray) and gm.phi.shape == (2,)
     np.testing.assert_allclose(gm.phi, np.exp(-np.array([1e-3, 5e-4])), rtol=1e-15)
     text = gm.summary()
@@ -358,20 +359,20 @@ def test_gm_summary_and_arrays() -> None:
 
 def test_gm_bad_input() -> None:
     with pytest.raises(InputError, match="fs"):
-        U.gm_discretize(1.0, 1.0, 0.0)
+        gm_discrete.gm_discretize(1.0, 1.0, 0.0)
     with pytest.raises(InputError, match="tc"):
-        U.gm_discretize(1.0, -1.0, 100.0)
+        gm_discrete.gm_discretize(1.0, -1.0, 100.0)
     with pytest.raises(InputError, match="sigma"):
-        U.gm_discretize(-1.0, 1.0, 100.0)
+        gm_discrete.gm_discretize(-1.0, 1.0, 100.0)
     with pytest.raises(InputError, match="Tc \\* fs > 1"):
-        U.gm_discretize(1.0, 0.005, 100.0, method="euler")
+        gm_discrete.gm_discretize(1.0, 0.005, 100.0, method="euler")
     with pytest.raises(InputError, match="method"):
-        U.gm_discretize(1.0, 1.0, 100.0, method="tustin")  # type: ignore[arg-type]
+        gm_discrete.gm_discretize(1.0, 1.0, 100.0, method="tustin")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="form"):
-        U.gm_driving_psd(1.0, 1.0, form="groves")  # type: ignore[arg-type]
+        gm_discrete.gm_driving_psd(1.0, 1.0, form="groves")  # type: ignore[arg-type]
     for phi in (0.0, 1.0, 1.2, -0.5):
         with pytest.raises(DomainError, match="phi must lie in the open interval"):
-            U.gm_from_discrete(phi, 1e-6, 100.0)
+            gm_discrete.gm_from_discrete(phi, 1e-6, 100.0)
         # one conversion: the GM plugin's constructor refuses the same input the same way
         with pytest.raises(DomainError, match="phi must lie in the open interval"):
             sm.get_process("GM").from_ar1(phi, 1e-6, 100.0)
@@ -399,14 +400,14 @@ def test_quinchia_appendix_accelerometers(axis: str) -> None:
     assert q_n == pytest.approx(n**2 / (3600 * DT), rel=1e-13)
     # eq. 29 (line 1673): sigma_GM = B * 0.664 / 3600
     # eq. 28 (line 1664): q_bi = sigma_GM^2 (1 - e^{-2 dt/Tc})
-    gm = U.gm_from_bias_instability(U.to_si(b, "m/s/h", kind="B"), tc, fs, factor=U.BI_FACTOR_IEEE,
+    gm = gm_discrete.gm_from_bias_instability(U.to_si(b, "m/s/h", kind="B"), tc, fs, factor=U.BI_FACTOR_IEEE,
                                     method="quinchia2013")
     sigma_gm = b * 0.664 / 3600
     assert gm.sigma == pytest.approx(sigma_gm, rel=1e-13)
     assert gm.q == pytest.approx(sigma_gm**2 * (1 - math.exp(-2 * DT / tc)), rel=1e-12)
     assert gm.phi == pytest.approx(1 - DT / tc, rel=1e-15)  # eq. 21 (line 1503): I - diag(beta dt)
     # the exact form has the same q (eq. 28 is exact) and phi = exp(-dt/Tc)
-    exact = U.gm_from_bias_instability(U.to_si(b, "m/s/h"), tc, fs, factor=U.BI_FACTOR_IEEE)
+    exact = gm_discrete.gm_from_bias_instability(U.to_si(b, "m/s/h"), tc, fs, factor=U.BI_FACTOR_IEEE)
     assert exact.q == pytest.approx(gm.q, rel=1e-14)
     # eq. 30 (line 1681): q_k = K^2 dt / 3600^3
     q_k = U.rw_variance(U.to_si(k, "m/s/h^1.5", kind="K"), fs)
@@ -418,7 +419,7 @@ def test_quinchia_appendix_acc_x_numbers() -> None:
     # 166.30^2 * 0.01 / 3600^3 = 5.927574e-9; (9.513829e-4)^2 (1 - e^{-0.02/4.56}) = 3.961173e-9
     fs = 100.0
     assert U.wn_variance(U.to_si(0.045, "m/s/sqrt(h)"), fs) == pytest.approx(5.625e-5, rel=1e-13)
-    gm = U.gm_from_bias_instability(U.to_si(5.1581, "m/s/h"), 4.56, fs, factor=0.664)
+    gm = gm_discrete.gm_from_bias_instability(U.to_si(5.1581, "m/s/h"), 4.56, fs, factor=0.664)
     assert gm.sigma == pytest.approx(9.513829e-4, rel=1e-6)
     assert gm.q == pytest.approx(3.961173e-9, rel=1e-6)
     assert U.rw_variance(U.to_si(166.30, "m/s/h^1.5"), fs) == pytest.approx(5.927574e-9, rel=1e-6)
@@ -431,7 +432,7 @@ def test_quinchia_appendix_gyros(axis: str) -> None:
     fs, d = 1.0 / DT, math.pi / 180
     q_n = U.wn_variance(U.to_si(n, "deg/sqrt(h)"), fs)
     assert q_n == pytest.approx((n * d) ** 2 / (3600 * DT), rel=1e-13)
-    gm = U.gm_from_bias_instability(U.to_si(b, "deg/h"), tc, fs, factor=0.664)
+    gm = gm_discrete.gm_from_bias_instability(U.to_si(b, "deg/h"), tc, fs, factor=0.664)
     sigma_gm = b * d * 0.664 / 3600
     assert gm.sigma == pytest.approx(sigma_gm, rel=1e-13)
     assert gm.q == pytest.approx(sigma_gm**2 * (1 - math.exp(-2 * DT / tc)), rel=1e-12)
@@ -448,14 +449,14 @@ def test_quinchia_table2_ar1_as_gauss_markov() -> None:
     # Q Table 2 (lines 771-772): gyro X AR(1) alpha_1 = -0.999, beta_0^2 = 1.014e-10 (rad/s)^2,
     # 100 Hz, x(n) = -alpha_1 x(n-1) + beta_0 w(n).  Tc = -1/(fs ln 0.999) = 9.995 s and
     # sigma^2 = q / (1 - 0.999^2).
-    gm = U.gm_from_discrete(0.999, 1.014e-10, 100.0)
+    gm = gm_discrete.gm_from_discrete(0.999, 1.014e-10, 100.0)
     assert gm.tc == pytest.approx(float(-1 / (100 * mp.log(mp.mpf("0.999")))), rel=1e-12)
     assert gm.tc == pytest.approx(9.995, abs=1e-3)
     acov0 = arma_acovf(np.array([1.0, -0.999]), np.array([1.0]), nobs=1, sigma2=1.014e-10)[0]
     assert gm.sigma2 == pytest.approx(acov0, rel=1e-10)
     # the accelerometers' alpha_1 = -1 (lines 753-754) is a random walk, not a Gauss-Markov process
     with pytest.raises(DomainError, match="phi"):
-        U.gm_from_discrete(1.0, 2.129e-10, 100.0)
+        gm_discrete.gm_from_discrete(1.0, 2.129e-10, 100.0)
 
 
 # ---------------------------------------------------------------- Gonzalez et al. (2015)

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy import signal as sp_signal
 
 import stochmod
-from stochmod.errors import InputError, SpecError
+from stochmod.core.errors import InputError, SpecError
 from stochmod.fit.validation import octave_psd, validate
 
 FREQ = 100.0

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import DomainError, InputError
+from stochmod.core.errors import DomainError, InputError
 from stochmod.fit.engine import Problem
 from stochmod.fit.vector_binding import VectorBinding
-from stochmod import geometric
-from stochmod.geometric import haar_wv_positive, haar_wv_positive_rows
-from stochmod.process import Process, wv_rows_domains
+from stochmod.core import geometric
+from stochmod.core.geometric import haar_wv_positive, haar_wv_positive_rows
+from stochmod.core.process import Process, wv_rows_domains
 
 FREQ = 100.0
 
@@ -146,7 +146,7 @@ def test_select_takes_the_wv_here_and_its_v_is_data_covariance_bit_for_bit() -> 
 
     from stochmod.fit.selection import select
     from stochmod.fit.weighting import data_covariance
-    from stochmod.signal.wavelet_variance import wvar
+    from stochmod.empirical.wavelet_variance import wvar
 
     truth = stochmod.model_from_spec("GM(beta=10.0, sigma2=1.0) + WN(sigma2=1.0)", FREQ)
     x = truth.simulate(3000, rng=4)
@@ -213,7 +213,7 @@ def test_compiled_kernels_give_the_rows_digits() -> None:
 
 
 def test_a_subclass_that_changes_the_rows_does_not_inherit_the_kernel() -> None:
-    from stochmod.process import wv_kernel
+    from stochmod.core.process import wv_kernel
 
     gm = type(stochmod.model_from_spec("GM", FREQ).processes[0])
 

@@ -14,18 +14,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from stochmod.errors import InputError
-from stochmod.signal.modwt import (
-    default_levels,
-    filter_width,
-    iter_modwt,
-    max_level,
-    modwt_coefficients,
-    modwt_filter,
-    modwt_filters,
-    squared_gain,
-)
-from stochmod.signal.wavelet_variance import NORMAL_CI_FLOOR, WaveletVariance, wvar
+from stochmod.core.errors import InputError
+from stochmod.core.filters import default_levels, filter_width, max_level, modwt_filter, modwt_filters, squared_gain
+from stochmod.empirical.modwt import iter_modwt, modwt_coefficients
+from stochmod.empirical.wavelet_variance import NORMAL_CI_FLOOR, WaveletVariance, wvar
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 WAVELETS = ["haar", "db2", "db4", "sym4"]

@@ -17,18 +17,19 @@ import numpy as np
 import pytest
 
 import stochmod
+from stochmod import sdk
 import stochmod.fit.selection  # used as stochmod.fit.selection below
 from stochmod.cli import main
-from stochmod.errors import InputError, StochmodError
+from stochmod.core.errors import InputError, StochmodError
 from stochmod.fit.weighting import WEIGHTINGS
-from stochmod.fit.weightings import (
+from stochmod.fit.weighting_plugins import (
     Weighting,
     WeightingInput,
     WeightingMatrix,
     get_weighting,
     weighting_names,
 )
-from stochmod.registry import plugin_manager, weightings
+from stochmod.plugin.registry import plugin_manager, weightings
 
 FREQ = 100.0
 FIRST_PARTY = ["bootstrap", "diagonal", "identity", "optimal"]
@@ -59,7 +60,7 @@ class Inverse4th(Weighting):
 
 def _plugin(*objects: Any) -> object:
     class Plugin:
-        @stochmod.hookimpl
+        @sdk.hookimpl
         def stochmod_weightings(self) -> list[Any]:
             return list(objects)
 
@@ -81,7 +82,7 @@ def test_first_party_weightings_are_registered_through_the_hook() -> None:
     table = weightings()
     assert set(FIRST_PARTY) <= set(table) and list(table) == sorted(table)
     loaded = {name for name, _ in plugin_manager().list_name_plugin()}
-    assert "stochmod.fit.weightings" in loaded
+    assert "stochmod.fit.weighting_plugins" in loaded
     for name in FIRST_PARTY:
         assert get_weighting(name) is table[name] and table[name].name == name
     assert set(FIRST_PARTY) <= set(WEIGHTINGS)  # the compatibility tuple follows the registry

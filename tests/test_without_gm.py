@@ -14,11 +14,14 @@ import numpy as np
 import pytest
 
 import stochmod as sm
-from stochmod.classical import acf_model, allan_model, psd_reading_model
-from stochmod.errors import SpecError, UnknownProcessError
+from stochmod.empirical.acf import fit_gm_acf
+from stochmod.empirical.psd import psd_reading
+from stochmod.fit.classical import av_model
+from stochmod.fit.classical import acf_model, allan_model, psd_reading_model
+from stochmod.core.errors import SpecError, UnknownProcessError
 from stochmod.fit.selection import candidate_lattice
-from stochmod.lattice import default_families, default_max_counts
-from stochmod.registry import plugin_manager
+from stochmod.fit.lattice import default_families, default_max_counts
+from stochmod.plugin.registry import plugin_manager
 
 FS = 100.0
 
@@ -81,8 +84,8 @@ def test_readings_give_coefficients_and_models_of_the_families_left(without_gm):
     model = allan_model(reading)
     assert [p.family for p in model.processes] == ["WN", "RW"]
     assert model.processes[0].sigma2 == pytest.approx(reading.N.value**2 * FS, rel=1e-12)
-    assert sm.av_model(x, FS).model == model
-    psd_model = psd_reading_model(sm.psd_reading(x, FS))
+    assert av_model(x, FS).model == model
+    psd_model = psd_reading_model(psd_reading(x, FS))
     assert [p.family for p in psd_model.processes] == ["WN", "RW"]
 
 
@@ -96,17 +99,15 @@ def test_a_reading_that_needs_gm_names_what_is_missing(without_gm):
                                         r"coefficients \('B', 'Tc'\)"):
         allan_model(reading)
     with pytest.raises(SpecError, match=r"\('B', 'Tc'\)"):
-        sm.av_model(x, FS)
+        av_model(x, FS)
     # the PSD's B still has a family when read as flicker above a corner (BI)
-    psd = sm.psd_reading(x, FS)
+    psd = psd_reading(x, FS)
     assert psd.B.value == pytest.approx(2e-3, rel=0.1)
     bi = psd_reading_model(psd, bias="bi")
     assert [p.family for p in bi.processes] == ["WN", "BI"]
     assert bi.processes[1].B == psd.B.value and bi.processes[1].fc == psd.B.f_low
     with pytest.raises(SpecError, match=r"\('B', 'Tc'\)"):
         psd_reading_model(psd, bias_tc=10.0)
-    fit = sm.fit_gm_acf(x, FS)
+    fit = fit_gm_acf(x, FS)
     with pytest.raises(SpecError, match=r"\('rate', 'variance'\)"):
         acf_model(fit)
-    with pytest.raises(AttributeError, match="Gauss-Markov family, which is not registered"):
-        sm.units.gm_discretize  # noqa: B018 - the attribute access is the test

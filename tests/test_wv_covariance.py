@@ -3,11 +3,13 @@
 import numpy as np
 import pytest
 
-from stochmod.errors import InputError
-from stochmod.signal import haar_jit
-from stochmod.signal.modwt import filter_width, modwt_coefficients
-from stochmod.signal.wavelet_variance import wvar
-from stochmod.signal.wv_covariance import wv_covariance
+from stochmod.core import jit
+from stochmod.core.errors import InputError
+from stochmod.empirical import haar_jit
+from stochmod.core.filters import filter_width
+from stochmod.empirical.modwt import modwt_coefficients
+from stochmod.empirical.wavelet_variance import wvar
+from stochmod.empirical.wv_covariance import wv_covariance
 
 
 def direct_eq17(x, levels):
@@ -65,7 +67,7 @@ from stochmod.fit.weighting import (  # noqa: E402
     equivalent_dof,
     model_covariance,
 )
-from stochmod.theory import wv_covariance_from_psd  # noqa: E402
+from stochmod.core.theory import wv_covariance_from_psd  # noqa: E402
 
 EXACT_N, EXACT_J = 1024, 6
 
@@ -174,7 +176,7 @@ def test_threads_give_the_serial_digits_and_the_direct_sum(workers):
 
 
 def test_threads_default_from_the_environment(monkeypatch):
-    from stochmod.signal.wv_covariance import THREADS_VARIABLE, default_workers
+    from stochmod.empirical.wv_covariance import THREADS_VARIABLE, default_workers
 
     monkeypatch.setenv(THREADS_VARIABLE, "1")
     assert default_workers() == 1
@@ -189,10 +191,10 @@ def test_threads_default_from_the_environment(monkeypatch):
 
 
 @pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.skipif(
-    haar_jit.numba is None, reason="numba (the 'fast' extra) is not installed"))])
+    not jit.AVAILABLE, reason="numba (the 'fast' extra) is not installed"))])
 def test_both_power_spectrum_paths_give_the_direct_sum(monkeypatch, compiled):
     """scipy's real transform and the compiled split of a complex one
-    (:mod:`stochmod.signal.spectrum_jit`), each against the direct double-precision sum."""
+    (:mod:`stochmod.empirical.spectrum_jit`), each against the direct double-precision sum."""
     monkeypatch.setattr(haar_jit, "AVAILABLE", compiled)
     x = np.random.default_rng(5).normal(size=913)
     assert wv_covariance(x, 6) == pytest.approx(direct_eq17(x, 6), rel=2e-5)

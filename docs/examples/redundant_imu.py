@@ -20,9 +20,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import stochmod
-from stochmod.examples_redundant import redundant_gyros
-from stochmod.io import read_recording
-from stochmod.reporting import format_table
+from stochmod.data.redundant import redundant_gyros
+from stochmod.io.recording import read_recording
+from stochmod.core.tables import format_table
 
 ROOT = Path(__file__).resolve().parents[2]
 FIG = ROOT / "docs" / "figures"

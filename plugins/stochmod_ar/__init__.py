@@ -7,7 +7,7 @@ sampling frequency ``freq``; discrete time only. The order p is structural: ``"A
 Everything exact goes through the roots z_l of ``z^p - phi_1 z^(p-1) - ... - phi_p``
 (:mod:`stochmod_ar._roots`): the autocovariance and the Haar WV are residue sums of
 ``sigma2 z^(p-1) K(z) / (P(z) P*(z))``, i.e. sums of geometric terms ``c_l z_l^|h|`` whose Haar
-WV comes from :func:`stochmod.geometric.haar_wv_geometric` (stable as |z_l| -> 1, phi near +-1);
+WV comes from :func:`stochmod.core.geometric.haar_wv_geometric` (stable as |z_l| -> 1, phi near +-1);
 groups of near-repeated roots are summed by a contour integral around the group instead of
 by their individually large residues, and levels whose estimated rounding error exceeds
 1e-12 are summed again with double-double residues. Accuracy against the exact value for
@@ -38,14 +38,14 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import AccuracyWarning, DomainError, InputError, SpecError
-from stochmod.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter, get_domain
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.statespace import StateSpaceBlock
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import AccuracyWarning, DomainError, InputError, SpecError
+from stochmod.core.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter, get_domain
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.statespace import StateSpaceBlock
 from stochmod_ar._jacobian import haar_wv_phi_jacobian
 from stochmod_ar._roots import ARRoots, ar_roots
 
@@ -153,7 +153,7 @@ class AR(Process):
         Per level, the better conditioned of two exact forms: ``sum_l c_l W_m(z_l)``, or
         ``LRV / (2m) + sum_l c_l R_m(z_l)`` with the long-run variance
         ``LRV = sigma2 / (1 - sum phi)^2`` (exactly rounded) and the decaying part R_m of the
-        Haar kernel (:func:`stochmod.geometric.haar_wv_geometric_parts`); the second keeps its
+        Haar kernel (:func:`stochmod.core.geometric.haar_wv_geometric_parts`); the second keeps its
         digits at deep levels when roots close to the unit circle make the residues large.
         """
         if wavelet != "haar":
@@ -215,7 +215,7 @@ class AR(Process):
         7e-5 and 3e-4 from +1, where ``d = 1e-8``). Where neither form
         resolves an entry to 10% (several roots within ~1e-8 of the circle, where one ulp of
         phi moves the WV by more than the step differences need), an
-        :class:`~stochmod.errors.AccuracyWarning` names the entries.
+        :class:`~stochmod.core.errors.AccuracyWarning` names the entries.
         """
         freq = check_freq(freq)
         base = self.wv(levels, freq)

@@ -14,7 +14,7 @@ ones. With ``Q_r = prod_{s != r} (z_r - z_s)``, ``A_r = A(z_r)``, ``c_r = z_r^(p
 ``dF/dphi_k = sum_r z_r^(2p-k-2) / (A_r Q_r^2) [z_r W'(z_r) + W(z_r) (2p-k-1 + z_r (T_r - 2 S_r))]
 + c_r W(z_r) z_r^k / A_r``
 
-where ``z W'(z) = dW/dlog z`` (:func:`stochmod.geometric.haar_wv_geometric_dlog`). The terms
+where ``z W'(z) = dW/dlog z`` (:func:`stochmod.core.geometric.haar_wv_geometric_dlog`). The terms
 grow like ``1 / (z_r - z_s)^2`` as roots approach each other, and their sum cancels; each entry
 comes with an estimate of its rounding error (eps times the sum of the moduli of its terms,
 inflated by the relative accuracy of the root differences), and the caller falls back to
@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_dlog
+from stochmod.core.geometric import haar_wv_geometric, haar_wv_geometric_dlog
 
 from stochmod_ar._roots import ARRoots
 

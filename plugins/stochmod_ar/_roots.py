@@ -160,7 +160,7 @@ class ARRoots:
     @staticmethod
     def sign_log(anchor: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(sign, u)`` with ``z = sign * exp(-u)`` for points ``z = anchor + w``."""
-        from stochmod.geometric import log1p_complex
+        from stochmod.core.geometric import log1p_complex
 
         anchor = np.asarray(anchor, dtype=np.float64)
         w = np.asarray(w, dtype=np.complex128)

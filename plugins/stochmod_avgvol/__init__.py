@@ -23,9 +23,9 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod._validation import check_positive_int
-from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.hookspecs import hookimpl
+from stochmod.core.checks import check_positive_int
+from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
+from stochmod.plugin.hookspecs import hookimpl
 
 __all__ = ["AveragedVolatility", "moving_sum", "stochmod_combiners"]
 

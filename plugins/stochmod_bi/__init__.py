@@ -7,8 +7,8 @@ the Nyquist frequency, built as a log-uniform mixture of Gauss-Markov processes 
 
 from __future__ import annotations
 
-from stochmod.hookspecs import hookimpl
-from stochmod.process import Process
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.process import Process
 
 from ._circulant import circulant_embedding
 from ._gm_approx import GMApproximation

@@ -7,7 +7,7 @@ of ``ln d`` on ``[d_lo, d_hi]`` with ``d_lo = 2 pi nu_c`` (``nu_c = fc / freq``)
 ``B^2 / pi``. Every quantity is an integral over ``s = ln d`` of an AR(1) quantity, done by
 composite Gauss-Legendre quadrature (the integrands are analytic in a strip of half-width
 about pi/2 around the real s axis, so 12-point panels of width 1/2 reach rounding level).
-The AR(1) Haar WV per unit variance is :func:`stochmod.geometric.haar_wv_geometric` at
+The AR(1) Haar WV per unit variance is :func:`stochmod.core.geometric.haar_wv_geometric` at
 ``log z = -d`` (free of cancellation for slow components).
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import exp1
 
-from stochmod.geometric import haar_wv_geometric, haar_wv_geometric_dlog
+from stochmod.core.geometric import haar_wv_geometric, haar_wv_geometric_dlog
 
 __all__ = ["D_HI", "band", "mixture_nodes", "ar1_wv", "ar1_spectrum", "unit_wv", "unit_wv_d_lo",
            "unit_spectrum", "unit_autocovariance"]

@@ -11,13 +11,13 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import DomainError, InputError, SpecError
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.statespace import ContinuousBlock
-from stochmod.units import BI_FACTOR, bi_from_floor, to_si
+from stochmod.core.checks import check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import DomainError, InputError, SpecError
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.statespace import ContinuousBlock
+from stochmod.core.units import BI_FACTOR, bi_from_floor, to_si
 
 from ._circulant import circulant_embedding
 from ._gm_approx import GMApproximation, default_levels, fit_unit_gms
@@ -112,7 +112,7 @@ class BI(Process):
     def from_datasheet(cls, B: float, unit: str, Tc: float, Tc_unit: str = "s") -> BI:
         """BI from datasheet values, e.g. ``BI.from_datasheet(10, "deg/h", 100)``.
 
-        `B` in `unit` (any unit :func:`stochmod.units.to_si` reads as a rate or acceleration),
+        `B` in `unit` (any unit :func:`stochmod.core.units.to_si` reads as a rate or acceleration),
         `Tc` in `Tc_unit`; stored in SI (rad/s or m/s^2, and Hz).
         """
         return cls.from_correlation_time(to_si(B, unit, kind="B"), to_si(Tc, Tc_unit, kind="Tc"))

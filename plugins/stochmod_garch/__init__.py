@@ -11,7 +11,7 @@ For each sensor i (and axis j), on the least-squares residuals ``r_i(t) = x_i(t)
    ``w_i(t) = sigma_i^-2(t) / sum_k sigma_k^-2(t)``, whose error variance is estimated as
    ``1 / sum_i sigma_i^-2(t)``.
 
-The estimators are the core's :func:`stochmod.signal.arma.select_arma` and
+The estimators are the core's :func:`stochmod.fit.arma.select_arma` and
 :func:`stochmod.fit_garch` (they scale the data inside: IMU-scale inputs work as given).
 """
 
@@ -23,14 +23,14 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod._validation import check_positive_int
-from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.errors import InputError
-from stochmod.hookspecs import hookimpl
+from stochmod.core.checks import check_positive_int
+from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
+from stochmod.core.errors import InputError
+from stochmod.plugin.hookspecs import hookimpl
 
 if TYPE_CHECKING:  # the estimators are imported where they run (they import scipy.signal)
-    from stochmod.signal.arma import ArmaFit
-    from stochmod.signal.garch import GarchFit
+    from stochmod.fit.arma import ArmaFit
+    from stochmod.fit.garch import GarchFit
 
 __all__ = ["GarchCombiner", "SensorVolatility", "stochmod_combiners"]
 
@@ -65,8 +65,8 @@ def _fit_axis(r: np.ndarray, sensor: int, axis: int | None, arma: Any, garch: An
               max_order: int, lags: int, select_samples: int
               ) -> tuple[np.ndarray, np.ndarray, SensorVolatility]:
     """Conditional mean (T,), conditional variance (T,) and the fits of one residual series."""
-    from stochmod.signal.arma import fit_arma, select_arma
-    from stochmod.signal.garch import fit_garch, select_garch
+    from stochmod.fit.arma import fit_arma, select_arma
+    from stochmod.fit.garch import fit_garch, select_garch
 
     arma_order = _orders(arma, "arma")
     if arma_order is None:
@@ -118,7 +118,7 @@ class GarchCombiner:
             Processes fitting the sensors (and axes) in parallel; None or 1: one after another
             in this process. The fits are independent, so the result is the serial one.
         """
-        from stochmod.signal import garch_jit
+        from stochmod.fit import garch_jit
 
         select_samples = check_positive_int(select_samples, name="select_samples", minimum=100)
         workers = 1 if workers is None else check_positive_int(workers, name="workers")

@@ -6,10 +6,10 @@ and innovation variance ``sigma2 (1 - phi^2)``; autocovariance ``sigma2 phi^|h|`
 
 Closed forms (m = 2^(j-1), ``u = beta / freq``):
 
-- Haar WV ``sigma2 W_m(e^-u)`` with :func:`stochmod.geometric.haar_wv_geometric`, evaluated
+- Haar WV ``sigma2 W_m(e^-u)`` with :func:`stochmod.core.geometric.haar_wv_geometric`, evaluated
   from u itself, without cancellation: relative error ~1e-15 down to ``u = 1e-8`` and below
   (correlation times of days at 1 kHz) where the textbook AR(1) formula loses every digit;
-  analytic Jacobian from :func:`stochmod.geometric.haar_wv_geometric_dlog`.
+  analytic Jacobian from :func:`stochmod.core.geometric.haar_wv_geometric_dlog`.
 - Two-sided PSD of the sampled process
   ``sigma2 (1 - phi^2) / (freq |1 - phi e^{-i 2 pi f/freq}|^2)`` (u^2/Hz), with
   ``|1 - phi e^{-iw}|^2 = (1 - phi)^2 + 4 phi sin^2(w/2)`` and ``1 - phi = -expm1(-u)``.
@@ -32,10 +32,10 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import DomainError, InputError
-from stochmod.geometric import (
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import DomainError, InputError
+from stochmod.core.geometric import (
     AV_PEAK_VALUE,
     POSITIVE_ROWS_KERNEL_MAX_U,
     WV_PEAK_X,
@@ -43,11 +43,11 @@ from stochmod.geometric import (
     haar_wv_positive_rows,
     positive_rows_kernel,
 )
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.statespace import ContinuousBlock
-from stochmod.units import BI_FACTOR, bi_floor, bi_from_floor
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.statespace import ContinuousBlock
+from stochmod.core.units import BI_FACTOR, bi_floor, bi_from_floor
 from stochmod_gm.discrete import (
     GMDiscrete,
     ar1_to_gm,
@@ -176,7 +176,7 @@ class GM(Process):
         Notes
         -----
         ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``
-        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion ``stochmod.units.gm_from_discrete``
+        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion ``stochmod.core.units.gm_from_discrete``
         also uses: same errors); a phi within a few ulps of 1 carries few digits of beta.
         """
         _, _, beta, sigma2, scalar = ar1_to_gm(phi, innovation_var, freq)
@@ -190,10 +190,10 @@ class GM(Process):
         """The GM that models a bias instability `B` (u) with correlation time `Tc` (s).
 
         Follows Quinchia et al. (2013, Sect. 5.5 and eqs. 29-30): the GM's stationary sigma is
-        the flat Allan-deviation floor ``factor * B`` (:func:`stochmod.units.bi_floor`) and its
+        the flat Allan-deviation floor ``factor * B`` (:func:`stochmod.core.units.bi_floor`) and its
         correlation time the one read on the Allan curve. ``factor`` defaults to the exact
-        ``sqrt(2 ln 2 / pi)`` (:data:`stochmod.units.BI_FACTOR`); pass
-        :data:`stochmod.units.BI_FACTOR_IEEE` (0.664) to reproduce the paper's numbers.
+        ``sqrt(2 ln 2 / pi)`` (:data:`stochmod.core.units.BI_FACTOR`); pass
+        :data:`stochmod.core.units.BI_FACTOR_IEEE` (0.664) to reproduce the paper's numbers.
         """
         B = _positive(B, "GM.from_bias_instability: B (bias instability, u)")
         return cls.from_correlation_time(Tc, float(bi_floor(B, factor)))
@@ -262,7 +262,7 @@ class GM(Process):
 
     def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`wv` and :meth:`wv_jacobian` at rows ``(beta, sigma2)`` of `values` (K, 2),
-        bit for bit, in one call (:func:`stochmod.geometric.haar_wv_positive_rows`):
+        bit for bit, in one call (:func:`stochmod.core.geometric.haar_wv_positive_rows`):
         shapes (K, J) in u^2 and (K, J, 2)."""
         values = np.asarray(values, dtype=np.float64).reshape(-1, 2)
         freq = check_freq(freq)

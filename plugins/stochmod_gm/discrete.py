@@ -4,7 +4,7 @@ Quinchia et al. (2013, eqs. 2-4 and 27-30) and Gonzalez et al. (2015): the exact
 of ``dx/dt = -beta x + w(t)`` at a sampling frequency, the first-order forms the papers use,
 the AR(1) read back as a GM, and the GM of a bias instability. :func:`ar1_to_gm` is the one
 AR(1) conversion, shared with :meth:`stochmod_gm.GM.from_ar1`. Also reachable as
-``stochmod.units.gm_discretize`` etc. while this plugin is registered.
+``stochmod.core.units.gm_discretize`` etc. while this plugin is registered.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import check_freq, checked_values, scalar_or_array
-from stochmod.errors import DomainError, InputError
-from stochmod.reporting import format_table
-from stochmod.units import BI_FACTOR, bi_floor
+from stochmod.core.checks import check_freq, checked_values, scalar_or_array
+from stochmod.core.errors import DomainError, InputError
+from stochmod.core.tables import format_table
+from stochmod.core.units import BI_FACTOR, bi_floor
 
 __all__ = [
     "GMMethod",
@@ -219,7 +219,7 @@ def gm_from_bias_instability(b: ArrayLike, tc: ArrayLike, fs: float, *,
     fs : float
         Sampling frequency, Hz, > 0.
     factor : float
-        Floor / B ratio; :data:`stochmod.units.BI_FACTOR` (exact) or :data:`stochmod.units.BI_FACTOR_IEEE` (0.664, the paper's).
+        Floor / B ratio; :data:`stochmod.core.units.BI_FACTOR` (exact) or :data:`stochmod.core.units.BI_FACTOR_IEEE` (0.664, the paper's).
     method : {"exact", "euler", "quinchia2013"}
         See :func:`gm_discretize`.  Quinchia's Appendix uses ``"quinchia2013"``.
     """

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import re
 
-from stochmod.errors import InputError
-from stochmod.units import parse_unit
+from stochmod.core.errors import InputError
+from stochmod.core.units import parse_unit
 
 __all__ = ["TIME_NAMES", "split_header", "find_time_column", "time_scale"]
 

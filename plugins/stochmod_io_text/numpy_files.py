@@ -7,8 +7,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from stochmod.errors import InputError
-from stochmod.io import Reader, Recording
+from stochmod.core.errors import InputError
+from stochmod.io.recording import Reader, Recording
 from stochmod_io_text._columns import find_time_column
 
 __all__ = ["NpyReader", "NpzReader"]

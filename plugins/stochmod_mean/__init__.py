@@ -14,9 +14,9 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.errors import InputError
-from stochmod.hookspecs import hookimpl
+from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
+from stochmod.core.errors import InputError
+from stochmod.plugin.hookspecs import hookimpl
 
 __all__ = ["MeanCombiner", "stochmod_combiners"]
 

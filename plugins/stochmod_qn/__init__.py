@@ -31,12 +31,12 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import DomainError, InputError
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import DomainError, InputError
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
 
 __all__ = ["QN", "stochmod_processes"]
 

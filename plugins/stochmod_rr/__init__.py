@@ -33,14 +33,14 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import InputError
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.signal.modwt import modwt_filters
-from stochmod.statespace import ContinuousBlock
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import InputError
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.filters import modwt_filters
+from stochmod.core.statespace import ContinuousBlock
 
 __all__ = ["RR", "stochmod_processes"]
 

@@ -31,14 +31,14 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.coefficients import check_coefficients
-from stochmod.errors import InputError
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.statespace import ContinuousBlock
-from stochmod.units import rw_density, rw_variance
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.coefficients import check_coefficients
+from stochmod.core.errors import InputError
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.statespace import ContinuousBlock
+from stochmod.core.units import rw_density, rw_variance
 
 __all__ = ["RW", "stochmod_processes"]
 
@@ -76,7 +76,7 @@ class RW(Process):
     def from_rrw(cls, K: float, freq: float) -> RW:
         """Random walk of IEEE coefficient `K` (u/sqrt(s); AV ``K^2 tau / 3``) at `freq` Hz.
 
-        ``sigma2 = K^2 / freq`` (:func:`stochmod.units.rw_variance`).
+        ``sigma2 = K^2 / freq`` (:func:`stochmod.core.units.rw_variance`).
         """
         return cls(sigma2=rw_variance(K, freq))
 

@@ -2,7 +2,7 @@
 
 The IMU topics PX4 logs are read as gyro and accelerometer columns in SI with their time
 stamps (``timestamp_sample`` where the topic has it, else ``timestamp``; microseconds in the
-file, seconds in the :class:`~stochmod.io.Recording`):
+file, seconds in the :class:`~stochmod.io.recording.Recording`):
 
 =================  =====================================================================
 topic              columns
@@ -26,9 +26,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from stochmod.errors import InputError
-from stochmod.hookspecs import hookimpl
-from stochmod.io import Reader, Recording, import_optional
+from stochmod.core.errors import InputError
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.io.recording import Reader, Recording, import_optional
 
 __all__ = ["ULogReader", "IMU_TOPICS", "stochmod_readers"]
 

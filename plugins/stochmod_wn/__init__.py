@@ -15,14 +15,14 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import check_freq
-from stochmod.coefficients import check_coefficients
-from stochmod.hookspecs import hookimpl
-from stochmod.params import Parameter
-from stochmod.process import PhysicalValue, Process, as_generator
-from stochmod.signal.haar_jit import AVAILABLE as _COMPILED
-from stochmod.signal.haar_jit import compiled
-from stochmod.units import wn_density
+from stochmod.core.checks import check_freq
+from stochmod.core.coefficients import check_coefficients
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.core.params import Parameter
+from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.core.jit import AVAILABLE as _COMPILED
+from stochmod.core.jit import compiled
+from stochmod.core.units import wn_density
 
 __all__ = ["WN", "stochmod_processes"]
 

@@ -11,7 +11,10 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from stochmod.errors import StochmodError
+from stochmod.core.errors import StochmodError
+
+#: What a local fleet's process server imports before it forks the workers.
+FLEET_WARM_MODULE = "stochmod.cli._fleet_worker"
 
 __all__ = ["main", "script", "build_parser"]
 
@@ -52,7 +55,7 @@ def _parser_for(argv: Sequence[str]) -> argparse.ArgumentParser:
 def _local_fleet(argv: Sequence[str]) -> bool:
     """Whether `argv` (not parsed yet) is ``calibrate ... --workers N`` with dask installed: a
     fleet on a local cluster, whose workers' process server starts before the parser's
-    imports (:func:`stochmod.fleet.start_process_server`)."""
+    imports (:func:`stochmod.workflows.fleet.start_process_server`)."""
     return (argv[:1] == ["calibrate"] and not {"-h", "--help"} & set(argv)
             and any(a == "--workers" or a.startswith("--workers=") for a in argv)
             and importlib.util.find_spec("distributed") is not None)
@@ -62,9 +65,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; errors on bad input print one line to stderr and return 2."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if _local_fleet(argv):
-        from stochmod.fleet import start_process_server
+        from stochmod.workflows.fleet import start_process_server
 
-        start_process_server()  # the workers' imports run beside this process's own
+        start_process_server(FLEET_WARM_MODULE)  # the workers' imports run beside this one's
     parser = _parser_for(argv)
     args = parser.parse_args(argv)
     try:

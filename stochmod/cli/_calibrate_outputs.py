@@ -15,11 +15,12 @@ from typing import Any
 import attrs
 import numpy as np
 
-from stochmod.datasheet import Datasheet, SENSORS, datasheet, signal_unit
-from stochmod.errors import InputError
-from stochmod.exports import EXPORT_FORMATS, write_exports
+from stochmod.output.datasheet import Datasheet, datasheet
+from stochmod.core.units import SENSORS, signal_unit
+from stochmod.core.errors import InputError
+from stochmod.output.exports import EXPORT_FORMATS, write_exports
 from stochmod.fit.selection import SelectionResult
-from stochmod.signal.allan_reading import AllanReading
+from stochmod.empirical.allan_reading import AllanReading
 
 __all__ = ["add_output_arguments", "column_units", "apply_triad", "datasheet_section",
            "write_exports_for", "write_report_for", "fleet_requested"]
@@ -73,9 +74,9 @@ def column_units(columns: list[str], args: argparse.Namespace, *, required: bool
 
 def apply_triad(results: list[SelectionResult], units: dict[str, str]
                 ) -> tuple[list[SelectionResult], list[Any]]:
-    """One structure per sensor (:func:`stochmod.triad.triad_select`): the selections with
+    """One structure per sensor (:func:`stochmod.fit.triad.triad_select`): the selections with
     their ``best`` replaced by each axis's fit of that structure, and the choices."""
-    from stochmod.triad import group_triads, triad_select
+    from stochmod.fit.triad import group_triads, triad_select
 
     by_col = {r.column: r for r in results}
     choices = []
@@ -115,7 +116,7 @@ def write_report_for(args: argparse.Namespace, results: list[SelectionResult], d
     if not args.report:
         return []
     from stochmod.fit.validation import validate
-    from stochmod.report import ReportAxis, write_report
+    from stochmod.output.html_report import ReportAxis, write_report
 
     axes = []
     for k, sel in enumerate(results):

@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from stochmod._validation import check_freq
-from stochmod.errors import InputError
-from stochmod.io import Recording, read_recording
+from stochmod.core.checks import check_freq
+from stochmod.core.errors import InputError
+from stochmod.io.recording import Recording, read_recording
 
 __all__ = ["MIN_SEGMENT", "add_input_arguments", "column_replicates", "gap_free_segments",
            "load_input", "load_segments", "longest_segment", "print_json", "to_jsonable"]
@@ -108,7 +108,7 @@ def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recordi
     """Read ``args.file`` restricted to ``args.column``, in SI, and resolve the sampling frequency.
 
     The reader options (``--reader``, ``--topic``, ``--instance``, ``--split-gaps``) go to
-    :func:`~stochmod.io.read_recording`; ``--unit`` (else the file's units) converts to SI
+    :func:`~stochmod.io.recording.read_recording`; ``--unit`` (else the file's units) converts to SI
     unless `to_si` is False (a subcommand that reports in the user's unit). A recording with
     gaps (``--split-gaps``) gives its longest gap-free segment, with a note on stderr; the
     subcommands that pool the segments use :func:`load_segments`.
@@ -128,7 +128,7 @@ def load_segments(args: argparse.Namespace, path: str | None = None
                   ) -> tuple[list[Recording], float]:
     """Like :func:`load_input`, but a recording with gaps (``--split-gaps``) gives all its
     gap-free segments (:func:`gap_free_segments`), whose wavelet variances the caller pools as
-    replicates (:mod:`stochmod.fit.pooled`); one segment without gaps. `path` replaces
+    replicates (:mod:`stochmod.fit.replicates`); one segment without gaps. `path` replaces
     ``args.file`` (``calibrate --pooled`` reads several files with the same options)."""
     rec, freq = _read(args, True, path)
     return gap_free_segments(rec), freq

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.errors import InputError
-from stochmod.signal.allan import KINDS, AllanVariance, avar
-from stochmod.signal.allan_reading import AllanReading, allan_reading
+from stochmod.core.errors import InputError
+from stochmod.empirical.allan import KINDS, AllanVariance, avar
+from stochmod.empirical.allan_reading import AllanReading, allan_reading
 
 __all__ = ["register", "run", "plot_reading"]
 

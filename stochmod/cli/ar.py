@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.errors import InputError
-from stochmod.signal.ar_fit import fit_ar
+from stochmod.core.errors import InputError
+from stochmod.empirical.ar_fit import fit_ar
 
 __all__ = ["register", "run"]
 

@@ -15,21 +15,22 @@ from typing import Any
 import attrs
 import numpy as np
 
+from stochmod.cli import FLEET_WARM_MODULE
 from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import (add_input_arguments, column_replicates, load_segments,
                                   longest_segment, print_json, to_jsonable)
 from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
-from stochmod.datasheet import datasheet_reading
-from stochmod.errors import EstimationError, InputError
-from stochmod.fleet import SerialExecutor, UnitSteps, run_fleet
-from stochmod.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
+from stochmod.output.datasheet import datasheet_reading
+from stochmod.core.errors import EstimationError, InputError
+from stochmod.workflows.fleet import SerialExecutor, UnitSteps, run_fleet
+from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult, select
-from stochmod.io import Recording
-from stochmod.model import augment_axes
-from stochmod.reporting import format_table
-from stochmod.signal.allan_reading import AllanReading
-from stochmod.statespace import StateSpaceBlock
+from stochmod.io.recording import Recording
+from stochmod.core.model import augment_axes
+from stochmod.core.tables import format_table
+from stochmod.empirical.allan_reading import AllanReading
+from stochmod.core.statespace import StateSpaceBlock
 
 __all__ = ["register", "run", "calibrate_file", "calibration_report", "SIMULATIONS_PER_TASK",
            "UnitInput", "ColumnResult", "UNIT_STEPS", "calibrate_unit", "read_unit",
@@ -155,7 +156,7 @@ def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit
             simulated: np.ndarray | None = None) -> Path:
     """One column's validation figure (module level: runs in a worker process), with its
     `simulated` WVs when they are already computed."""
-    from stochmod.plots import save_fit_figure
+    from stochmod.output.plots import save_fit_figure
 
     return save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=title, unit=unit,
                            simulated=simulated)
@@ -164,7 +165,7 @@ def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit
 def _simulations(fit: GMWMResult, n_sim: int, seed: int, start: int, stop: int) -> np.ndarray:
     """Series ``start:stop`` of the `n_sim` simulated WVs of a column's figure (module level:
     runs in a worker process)."""
-    from stochmod.plots import simulated_wv
+    from stochmod.output.plots import simulated_wv
 
     return simulated_wv(fit, n_sim, seed, indices=slice(start, stop))
 
@@ -377,8 +378,9 @@ def calibrate_unit(args: argparse.Namespace, executor: SerialExecutor) -> dict[s
     return calibrate_file(args, executor=executor, quiet=True)
 
 
-#: The single-file calibration as a fleet runs it (:func:`stochmod.fleet.run_fleet`).
-UNIT_STEPS = UnitSteps(calibrate_unit, read_unit, unit_columns, select_unit_column, finish_unit)
+#: The single-file calibration as a fleet runs it (:func:`stochmod.workflows.fleet.run_fleet`).
+UNIT_STEPS = UnitSteps(calibrate_unit, read_unit, unit_columns, select_unit_column, finish_unit,
+                       warm_module=FLEET_WARM_MODULE)
 
 
 def _checked_input(args: argparse.Namespace) -> tuple[list[Recording], float, float]:

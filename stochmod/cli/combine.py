@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from stochmod._validation import check_freq
+from stochmod.core.checks import check_freq
 from stochmod.cli._common import print_json
-from stochmod.combination import CombinationResult, combine
-from stochmod.errors import InputError
-from stochmod.io import Recording, read_recording
-from stochmod.registry import combiner_names
-from stochmod.reporting import format_table
+from stochmod.redundant.combination import CombinationResult, combine
+from stochmod.core.errors import InputError
+from stochmod.io.recording import Recording, read_recording
+from stochmod.plugin.registry import combiner_names
+from stochmod.core.tables import format_table
 
 __all__ = ["register", "run", "load_sensors", "combiner_options"]
 

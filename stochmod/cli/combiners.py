@@ -7,8 +7,8 @@ import inspect
 from typing import Any
 
 from stochmod.cli._common import print_json
-from stochmod.registry import combiners
-from stochmod.reporting import format_table
+from stochmod.plugin.registry import combiners
+from stochmod.core.tables import format_table
 
 __all__ = ["register", "run", "describe"]
 

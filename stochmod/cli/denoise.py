@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.errors import InputError
-from stochmod.signal.denoise import RULES, wavelet_denoise
+from stochmod.core.errors import InputError
+from stochmod.empirical.denoise import RULES, wavelet_denoise
 
 __all__ = ["register", "run"]
 

@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from stochmod.errors import InputError
-from stochmod.model import Model
+from stochmod.core.errors import InputError
+from stochmod.core.model import Model
+from stochmod.plugin.registry import get_process
 from stochmod.nav.alignment import InitialState
 from stochmod.nav.filter import (
     ERROR_MODELS,
@@ -95,12 +96,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def default_models(freq: float) -> tuple[Model, Model]:
     """The per-axis models used without --calibration, bound to `freq` (gyro, accel)."""
-    import stochmod
-
-    gyro = (stochmod.WN.from_density(math.pi / 180.0 / 60.0, freq)
-            + stochmod.RW.from_rrw(30.0 * _DEG_H / 60.0, freq)).bind(freq)
-    accel = (stochmod.WN.from_density(0.1 / 60.0, freq)
-             + stochmod.RW.from_rrw(0.01 / 60.0, freq)).bind(freq)
+    wn, rw = get_process("WN"), get_process("RW")
+    gyro = (wn.from_density(math.pi / 180.0 / 60.0, freq)
+            + rw.from_rrw(30.0 * _DEG_H / 60.0, freq)).bind(freq)
+    accel = (wn.from_density(0.1 / 60.0, freq)
+             + rw.from_rrw(0.01 / 60.0, freq)).bind(freq)
     return gyro, accel
 
 

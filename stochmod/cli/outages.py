@@ -7,9 +7,9 @@ import argparse
 import math
 import sys
 
-from stochmod.classical.build import family_for
-from stochmod.errors import InputError
-from stochmod.model import Model
+from stochmod.fit.classical.build import family_for
+from stochmod.core.errors import InputError
+from stochmod.core.model import Model
 from stochmod.nav.emulate import Segment
 from stochmod.nav.logs import calibration_record, read_calibration
 from stochmod.nav.study import DEFAULT_OUTAGES, DEFAULT_PROFILE, outage_study

@@ -6,9 +6,9 @@ import argparse
 from typing import Any
 
 from stochmod.cli._common import print_json
-from stochmod.params import get_domain
-from stochmod.process import Process
-from stochmod.registry import processes
+from stochmod.core.params import get_domain
+from stochmod.core.process import Process
+from stochmod.plugin.registry import processes
 
 __all__ = ["register", "run", "describe"]
 
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json({"processes": table})
         return 0
-    from stochmod.reporting import format_table
+    from stochmod.core.tables import format_table
 
     blocks = []
     for d in table:

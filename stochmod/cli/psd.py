@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
-from stochmod.signal.psd import PSDReading, psd_reading
+from stochmod.empirical.psd import PSDReading, psd_reading
 
 __all__ = ["register", "run"]
 

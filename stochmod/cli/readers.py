@@ -6,9 +6,9 @@ from __future__ import annotations
 import argparse
 
 from stochmod.cli._common import add_input_arguments, print_json
-from stochmod.io import read_recording
-from stochmod.registry import readers
-from stochmod.reporting import format_table
+from stochmod.io.recording import read_recording
+from stochmod.plugin.registry import readers
+from stochmod.core.tables import format_table
 
 __all__ = ["register", "run"]
 

@@ -6,10 +6,10 @@ import argparse
 from typing import Any
 
 from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.fit.selection import SelectionResult, select
-from stochmod.io import Recording
-from stochmod.lattice import default_families, default_max_counts
+from stochmod.io.recording import Recording
+from stochmod.fit.lattice import default_families, default_max_counts
 
 __all__ = ["register", "run", "add_selection_arguments", "select_columns", "selection_options"]
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 
 from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
-from stochmod.errors import InputError
-from stochmod.io import Recording
-from stochmod.signal.pooled import pooled_wvar
-from stochmod.signal.wavelet_variance import CI_METHODS, wvar
+from stochmod.core.errors import InputError
+from stochmod.io.recording import Recording
+from stochmod.empirical.pooled import pooled_wvar
+from stochmod.empirical.wavelet_variance import CI_METHODS, wvar
 
 __all__ = ["register", "run"]
 

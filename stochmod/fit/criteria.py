@@ -30,11 +30,11 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.fit.engine import IDENTIFIED_RTOL, full_rank, weighted_svd
 from stochmod.fit.results import GMWMResult, negligible_components
-from stochmod.hookspecs import hookimpl
-from stochmod.registry import criteria
+from stochmod.plugin.hookspecs import hookimpl
+from stochmod.plugin.registry import criteria
 
 __all__ = ["WaveletVarianceIC", "WVIC", "optimism", "identified", "negligible_components",
            "get_criterion",

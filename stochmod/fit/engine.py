@@ -5,7 +5,7 @@ This is the documented internal API that :func:`stochmod.gmwm`, indirect inferen
 (:mod:`stochmod.fit.indirect`) and model selection (:mod:`stochmod.fit.selection`) share; a new
 estimator built on the GMWM criterion uses it the same way (see docs/architecture.md):
 
-1. :func:`resolve_model` turns a spec into a :class:`~stochmod.model.Model` bound to the
+1. :func:`resolve_model` turns a spec into a :class:`~stochmod.core.model.Model` bound to the
    sampling frequency;
 2. :class:`Problem` is eq. 20, ``|| L (nu_hat - phi(theta)) ||^2`` with ``Omega = L' L``, over
    the free parameters on the unconstrained scale (``phi`` is the model's theoretical WV; a
@@ -30,11 +30,12 @@ import attrs
 import numpy as np
 from scipy import optimize
 
-from stochmod.errors import EstimationError, SpecError
+from stochmod.core.errors import EstimationError, SpecError
 from stochmod.fit.lsq import levenberg_marquardt
 from stochmod.fit.vector_binding import VectorBinding
-from stochmod.model import Model, as_model, model_from_spec
-from stochmod.process import Process
+from stochmod.core.model import Model, as_model
+from stochmod.plugin.spec import model_from_spec
+from stochmod.core.process import Process
 
 __all__ = [
     "BOUND",

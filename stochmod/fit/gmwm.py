@@ -8,7 +8,7 @@ seeded multi-start (random draws screened by the objective, best ones refined), 
 the global optimum is found reliably. The search, the canonical order and the sandwich
 covariance are the engine's (:mod:`stochmod.fit.engine`), the result is a
 :class:`~stochmod.fit.results.GMWMResult`, the weighting matrix comes from a registered
-weighting (:mod:`stochmod.fit.weightings`).
+weighting (:mod:`stochmod.fit.weighting_plugins`).
 """
 
 from __future__ import annotations
@@ -20,17 +20,17 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import InputError, SpecError
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.errors import InputError, SpecError
 from stochmod.fit.engine import Problem, resolve_model, search
 from stochmod.fit.indirect import IndirectGMWMResult, plan_binding
-from stochmod.fit.pooled import is_replicates, pooled_wv
+from stochmod.fit.replicates import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult, JTest, ParameterEstimate
 from stochmod.fit.weighting import check_weighting_matrix
-from stochmod.fit.weightings import WeightingInput, get_weighting
-from stochmod.model import Model
-from stochmod.process import Process
-from stochmod.signal.wavelet_variance import WaveletVariance, wvar
+from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
+from stochmod.core.model import Model
+from stochmod.core.process import Process
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["gmwm", "GMWMResult", "JTest", "ParameterEstimate"]
 
@@ -62,7 +62,7 @@ def gmwm(
     data : array_like, WaveletVariance or list of array_like
         The static error signal (unit u, mean removed or not: the Haar WV ignores the mean),
         or a precomputed empirical wavelet variance, or a list of replicate signals of one
-        sensor model (:mod:`stochmod.fit.pooled`: their pooled WV is matched, the weighting
+        sensor model (:mod:`stochmod.fit.replicates`: their pooled WV is matched, the weighting
         and the inference use its covariance, and ``result.pooled`` holds the pooling and the
         equality test).
     model : Model, Process, str or dict
@@ -71,7 +71,7 @@ def gmwm(
     freq : float
         Sampling frequency, Hz (taken from `data` when it is a WaveletVariance).
     weighting : str or array_like (J, J)
-        A registered weighting (:mod:`stochmod.fit.weightings`; a plugin may add others).
+        A registered weighting (:mod:`stochmod.fit.weighting_plugins`; a plugin may add others).
         ``"diagonal"``: inverse chi-square variances of the empirical WV (fast default);
         ``"optimal"``: inverse of the full asymptotic covariance of eq. 17 (needs the signal);
         ``"bootstrap"``: inverse of a parametric-bootstrap covariance (eq. 35) at a first
@@ -105,7 +105,7 @@ def gmwm(
     max_sim : int
         Cap on the simulated length, samples (never below N).
     robust : bool
-        Match the robust wavelet variance (:mod:`stochmod.signal.robust_wv`, Tukey biweight
+        Match the robust wavelet variance (:mod:`stochmod.empirical.robust_wv`, Tukey biweight
         M-estimate of each level's coefficient variance) instead of the classical one: a few
         outliers in the record no longer drive the fit. Its variances (inflated by
         ``kappa_j``) enter the diagonal weighting, its covariance (eq. 17 on clipped

@@ -37,14 +37,14 @@ from typing import Any
 import attrs
 import numpy as np
 
-from stochmod._validation import check_positive_int
-from stochmod.errors import InputError, SpecError
+from stochmod.core.checks import check_positive_int
+from stochmod.core.errors import InputError, SpecError
 from stochmod.fit.engine import Problem, canonical, sandwich
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import data_covariance
-from stochmod.model import Model
-from stochmod.process import has_theoretical_wv
-from stochmod.signal.wavelet_variance import wvar
+from stochmod.core.model import Model
+from stochmod.core.process import has_theoretical_wv
+from stochmod.empirical.wavelet_variance import wvar
 
 __all__ = ["BINDINGS", "MAX_SIMULATED", "SimulatedBinding", "SimulatedProblem",
            "IndirectGMWMResult", "plan_binding"]

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import OptimizeResult
 
-from stochmod.errors import EstimationError
+from stochmod.core.errors import EstimationError
 
 __all__ = ["levenberg_marquardt"]
 

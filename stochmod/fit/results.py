@@ -23,7 +23,7 @@ import numpy as np
 from scipy import special
 from scipy.linalg import solve_triangular
 
-from stochmod.errors import DomainError, EstimationError
+from stochmod.core.errors import DomainError, EstimationError
 from stochmod.fit.engine import SearchResult, canonical, full_rank, sandwich, weighted_svd
 from stochmod.fit.weighting import (
     bootstrap_covariance,
@@ -32,11 +32,11 @@ from stochmod.fit.weighting import (
     estimator_options,
     model_covariance,
 )
-from stochmod.model import Model
-from stochmod.process import Process
-from stochmod.reporting import format_table
-from stochmod.signal.pooled import PooledWaveletVariance
-from stochmod.signal.wavelet_variance import WaveletVariance
+from stochmod.core.model import Model
+from stochmod.core.process import Process
+from stochmod.core.tables import format_table
+from stochmod.empirical.pooled import PooledWaveletVariance
+from stochmod.empirical.wavelet_variance import WaveletVariance
 
 __all__ = ["GMWMResult", "JTest", "ParameterEstimate", "Binding", "negligible_components",
            "JTEST_MIN_EDF"]

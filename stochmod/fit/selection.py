@@ -32,21 +32,22 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import optimize
 
-from stochmod._validation import as_signals, check_freq, check_positive_int
-from stochmod.errors import DomainError, EstimationError, InputError, SpecError
+from stochmod.core.checks import as_signals, check_freq, check_positive_int
+from stochmod.core.errors import DomainError, EstimationError, InputError, SpecError
 from stochmod.fit import criteria as _criteria
 from stochmod.fit.engine import Problem, SearchResult, refine, search
-from stochmod.fit.pooled import is_replicates, pooled_wv
+from stochmod.fit.replicates import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import check_weighting_matrix, data_covariance
-from stochmod.fit.weightings import WeightingInput, get_weighting, weighting_names
-from stochmod.io import Recording
-from stochmod.lattice import default_families, default_max_counts
-from stochmod.model import Model, as_model, model_from_spec
-from stochmod.process import Process
-from stochmod.reporting import format_table
-from stochmod.signal.robust_wv import check_efficiency
-from stochmod.signal.wavelet_variance import WaveletVariance, wvar
+from stochmod.fit.weighting_plugins import WeightingInput, get_weighting, weighting_names
+from stochmod.io.recording import Recording
+from stochmod.fit.lattice import default_families, default_max_counts
+from stochmod.core.model import Model, as_model
+from stochmod.plugin.spec import model_from_spec
+from stochmod.core.process import Process
+from stochmod.core.tables import format_table
+from stochmod.empirical.robust_wv import check_efficiency
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",
            "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (read through __getattr__)
@@ -56,9 +57,9 @@ def __getattr__(name: str) -> Any:
     """Registry-derived constants, read when asked, not at import.
 
     ``DEFAULT_FAMILIES``: the registered families that declare lattice membership
-    (:func:`stochmod.lattice.default_families`). ``SELECTION_WEIGHTINGS``: the registered
+    (:func:`stochmod.fit.lattice.default_families`). ``SELECTION_WEIGHTINGS``: the registered
     weightings usable in a selection (a weighting that needs each model's own fit, such as the
-    bootstrap, cannot be shared by all candidates; :func:`stochmod.fit.weightings.weighting_names`).
+    bootstrap, cannot be shared by all candidates; :func:`stochmod.fit.weighting_plugins.weighting_names`).
     """
     if name == "DEFAULT_FAMILIES":
         return default_families()
@@ -106,7 +107,7 @@ def candidate_lattice(families: Sequence[str] | None = None,
     ----------
     families : sequence of str
         Family names (``"GM"``) or one-process terms (``"AR(2)"``), in the order the model
-        names list them (default: :func:`stochmod.lattice.default_families`).
+        names list them (default: :func:`stochmod.fit.lattice.default_families`).
     max_counts : mapping of str to int, optional
         Largest count per family (default 1 for a family not listed; e.g. ``{"GM": 3}``).
 
@@ -627,7 +628,7 @@ def select(
         Static error signal(s), unit u (rad/s, m/s^2 ...); a 2-D array holds one axis per
         column (e.g. 6 IMU axes) and gives one selection per column; a list of 1-D signals
         holds replicates of one sensor model and gives one selection on their pooled WV
-        (:mod:`stochmod.fit.pooled`).
+        (:mod:`stochmod.fit.replicates`).
     freq : float
         Sampling frequency, Hz (taken from a Recording when it records it).
     candidates : sequence of spec, optional
@@ -635,7 +636,7 @@ def select(
         counts 0..`max_counts` (see :func:`candidate_lattice`).
     families : sequence of str, optional
         Families of the lattice (default: the registered families that declare
-        ``lattice_copies > 0``, :func:`stochmod.lattice.default_families`; with the
+        ``lattice_copies > 0``, :func:`stochmod.fit.lattice.default_families`; with the
         first-party plugins GM, WN, RW, QN, RR).
     max_counts : mapping, optional
         Largest count per family (default: each family's declared ``lattice_copies`` where
@@ -721,7 +722,7 @@ def select(
             shared = prepared
         elif scheme.needs_signal or not local:
             # Omega needs eq. 17 of each column (in parallel), or the executor is not a local
-            # process pool (in-process executors time their calls: stochmod.fleet)
+            # process pool (in-process executors time their calls: stochmod.workflows.fleet)
             shared = [f.result() for f in [
                 pool.submit(_prepare, (data[:, k], freq, levels, scheme, seed, options))
                 for k in range(len(cols))]]

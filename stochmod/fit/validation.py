@@ -19,16 +19,16 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._fields import array_field
-from stochmod._validation import as_signal, check_freq, check_positive_int
-from stochmod.errors import InputError
+from stochmod.core.fields import array_field
+from stochmod.core.checks import as_signal, check_freq, check_positive_int
+from stochmod.core.errors import InputError
 from stochmod.fit.engine import resolve_model
 from stochmod.fit.results import GMWMResult
-from stochmod.model import Model
-from stochmod.process import Process, as_generator, has_theoretical_wv
-from stochmod.reporting import format_table
-from stochmod.signal.psd import psd as welch_psd
-from stochmod.signal.wavelet_variance import WaveletVariance, wvar
+from stochmod.core.model import Model
+from stochmod.core.process import Process, as_generator, has_theoretical_wv
+from stochmod.core.tables import format_table
+from stochmod.empirical.psd import psd as welch_psd
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 
 __all__ = ["ValidationBands", "validate", "OctavePSD", "octave_psd"]
 

@@ -7,13 +7,13 @@ Process objects each evaluation rebuilds every component (domain checks, attrs i
 evaluates each one's closed form separately. :class:`VectorBinding` maps the unconstrained
 vector to parameter values with the domains' own maps and membership tests, and asks each
 family for all its components (and all the points) in one call of
-:meth:`~stochmod.process.Process.haar_wv_rows`. The numbers are the same, bit for bit, as
+:meth:`~stochmod.core.process.Process.haar_wv_rows`. The numbers are the same, bit for bit, as
 ``model.from_unconstrained(theta).wv(J)`` and ``wv_jacobian(J)``: the same elementwise
 operations, the components summed in the model's order.
 
 It applies when every component's family overrides ``haar_wv_rows`` and is rebuilt by the
-fast path of :meth:`~stochmod.process.Process.from_unconstrained` (scalar parameters of
-built-in domains, no further checks: :func:`~stochmod.process.wv_rows_domains`): the
+fast path of :meth:`~stochmod.core.process.Process.from_unconstrained` (scalar parameters of
+built-in domains, no further checks: :func:`~stochmod.core.process.wv_rows_domains`): the
 built-ins WN, RW, GM, QN and RR. Any other model keeps the Process path.
 """
 
@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from stochmod.model import Model
-from stochmod.params import Domain, scalar_contains
-from stochmod.process import Process, wv_kernel, wv_rows_domains
+from stochmod.core.model import Model
+from stochmod.core.params import Domain, scalar_contains
+from stochmod.core.process import Process, wv_kernel, wv_rows_domains
 
 __all__ = ["VectorBinding"]
 
@@ -70,7 +70,7 @@ class VectorBinding:
     @classmethod
     def of(cls, template: Model, levels: int) -> VectorBinding | None:
         """The vector binding of `template`, or None when a component's family needs its
-        Process objects (:func:`~stochmod.process.wv_rows_domains`)."""
+        Process objects (:func:`~stochmod.core.process.wv_rows_domains`)."""
         domains: list[Domain] = []
         for p in template.processes:
             found = wv_rows_domains(type(p))
@@ -83,7 +83,7 @@ class VectorBinding:
 
     def values(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Natural parameter values at rows of `theta` (P, n) and whether each row lies in
-        its domains (the verdict of :meth:`~stochmod.process.Process.from_unconstrained`)."""
+        its domains (the verdict of :meth:`~stochmod.core.process.Process.from_unconstrained`)."""
         valid = np.ones(theta.shape[0], dtype=bool)
         if len(self._domains) == 1:  # one map for the whole vector (all positive, say)
             values = self._domains[0][0].from_unconstrained(theta)
@@ -108,7 +108,7 @@ class VectorBinding:
         vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
         domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers, with the
         domain tests done value by value; by the components' kernels
-        (:attr:`~stochmod.process.Process.haar_wv_kernel`) when every one has one (the same
+        (:attr:`~stochmod.core.process.Process.haar_wv_kernel`) when every one has one (the same
         digits again)."""
         if len(self._domains) == 1:
             values = self._domains[0][0].from_unconstrained(theta)
@@ -130,7 +130,7 @@ class VectorBinding:
 
     def derivatives(self, theta: np.ndarray) -> np.ndarray:
         """``d value / d theta`` of every entry of one unconstrained vector `theta` (n,): the
-        diagonal of :meth:`~stochmod.process.Process.transform_jacobian`."""
+        diagonal of :meth:`~stochmod.core.process.Process.transform_jacobian`."""
         if len(self._domains) == 1:  # one map for the whole vector
             return self._domains[0][0].elementwise_derivative(theta)
         d = np.empty_like(theta)

@@ -2,7 +2,7 @@
 
 The weightings themselves (``"diagonal"``, ``"optimal"`` ...) are plugins of the
 ``stochmod_weightings`` hook, found by name through the registry
-(:mod:`stochmod.fit.weightings`); this module holds the numerics they share.
+(:mod:`stochmod.fit.weighting_plugins`); this module holds the numerics they share.
 """
 
 from __future__ import annotations
@@ -11,14 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from stochmod import registry
-from stochmod._validation import check_positive_int
-from stochmod.errors import EstimationError, InputError, SpecError
-from stochmod.model import Model
-from stochmod.process import as_generator, psd_of
-from stochmod.signal.wavelet_variance import WaveletVariance, wvar
-from stochmod.signal.wv_covariance import wv_covariance
-from stochmod.theory import wv_covariance_from_psd
+from stochmod.plugin import registry
+from stochmod.core.checks import check_positive_int
+from stochmod.core.errors import EstimationError, InputError, SpecError
+from stochmod.core.model import Model
+from stochmod.core.process import as_generator, psd_of
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
+from stochmod.empirical.wv_covariance import wv_covariance
+from stochmod.core.theory import wv_covariance_from_psd
 
 __all__ = [
     "WEIGHTINGS",
@@ -38,7 +38,7 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     """``WEIGHTINGS``: the names of the registered weightings, at the time of the access
-    (kept for compatibility; :func:`stochmod.fit.weightings.weighting_names`)."""
+    (kept for compatibility; :func:`stochmod.fit.weighting_plugins.weighting_names`)."""
     if name == "WEIGHTINGS":
         return tuple(registry.weightings())
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -134,19 +134,19 @@ def level_variances(emp: WaveletVariance, levels: int) -> np.ndarray:
     """Variances of the empirical WV `emp` at levels 1..`levels` for the diagonal weighting,
     unit^4: :func:`chi2_variance` times the estimator's variance ratio ``kappa_j`` (1 for the
     classical estimator; for the robust one, its variance over the classical one's,
-    :mod:`stochmod.signal.robust_wv`)."""
+    :mod:`stochmod.empirical.robust_wv`)."""
     return (chi2_variance(emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
             * emp.variance_ratio[:levels])
 
 
 def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndarray:
     """Covariance of the empirical WV `emp` of the signal `x` at levels 1..`levels`: the
-    asymptotic estimator of eq. 17 (:func:`stochmod.signal.wv_covariance.wv_covariance`),
+    asymptotic estimator of eq. 17 (:func:`stochmod.empirical.wv_covariance.wv_covariance`),
     with the deep levels decoupled (:func:`decoupled_covariance`), unit^4.
 
     For a robust `emp` (``emp.robust``), eq. 17 runs on the coefficients clipped at
     ``c sqrt(nu_j)`` (outliers do not dominate it) and is scaled by the robust estimator's
-    variance ratios, ``V_jl sqrt(kappa_j kappa_l)`` (:mod:`stochmod.signal.robust_wv`)."""
+    variance ratios, ``V_jl sqrt(kappa_j kappa_l)`` (:mod:`stochmod.empirical.robust_wv`)."""
     clip = emp.tuning * np.sqrt(emp.wv[:levels]) if emp.robust and emp.efficiency < 1 else None
     V = wv_covariance(x, levels, wavelet=emp.wavelet, clip=clip)
     V = decoupled_covariance(V, emp.wv[:levels], emp.n_coef[:levels], emp.levels[:levels])
@@ -155,7 +155,7 @@ def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndar
 
 
 def estimator_options(emp: WaveletVariance) -> dict[str, Any]:
-    """The :func:`~stochmod.signal.wavelet_variance.wvar` options that reproduce `emp`'s
+    """The :func:`~stochmod.empirical.wavelet_variance.wvar` options that reproduce `emp`'s
     estimator (empty for the classical one; ``robust``, ``efficiency``, ``rho`` for a robust one)."""
     if not emp.robust:
         return {}
@@ -211,7 +211,7 @@ def model_covariance(model: Model, n_coef: np.ndarray, wavelet: str = "haar", *,
                      variance_ratio: np.ndarray | None = None) -> np.ndarray:
     """Large-sample covariance of the empirical WV under `model` (J x J, unit^4).
 
-    The Gaussian components' summed PSD gives :func:`stochmod.theory.wv_covariance_from_psd`;
+    The Gaussian components' summed PSD gives :func:`stochmod.core.theory.wv_covariance_from_psd`;
     a component with its own sampling covariance (:meth:`Process.wv_sampling_covariance`,
     e.g. the random ramp) adds it (cross terms between the two kinds are left out). Unlike
     the eq. 17 estimate it has no estimation noise at deep levels: it is the covariance a

@@ -15,7 +15,7 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav.records import GnssData
 from stochmod.nav.strapdown import NavState, check_imu
 

@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from stochmod.errors import InputError
-from stochmod.model import Model
+from stochmod.core.errors import InputError
+from stochmod.core.model import Model
 from stochmod.nav import earth, frames
 from stochmod.nav.records import IMU_KINDS, GnssData, ImuData, TrajectoryArrays
 

@@ -85,11 +85,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.stats import chi2
 
-from stochmod._fields import array_field
-from stochmod.datasheet import signal_unit
-from stochmod.equivalence import beyond_record
-from stochmod.errors import EstimationError, InputError, SpecError
-from stochmod.model import Model, augment_axes
+from stochmod.core.fields import array_field
+from stochmod.core.units import signal_unit
+from stochmod.fit.equivalence import beyond_record
+from stochmod.core.errors import EstimationError, InputError, SpecError
+from stochmod.core.model import Model, augment_axes
 from stochmod.nav import earth, frames
 from stochmod.nav.emulate import AXES, Trajectory
 from stochmod.nav.measurements import (
@@ -103,8 +103,8 @@ from stochmod.nav.measurements import (
 from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
 from stochmod.nav.alignment import InitialState, align_from_gnss
 from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
-from stochmod.reporting import format_table
-from stochmod.statespace import ContinuousBlock, compose_steps
+from stochmod.core.tables import format_table
+from stochmod.core.statespace import ContinuousBlock, compose_steps
 
 __all__ = ["ERROR_MODELS", "LINEARISATIONS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
            "RandomWalkEquivalent", "TIMINGS", "error_dynamics", "midpoint_pva"]
@@ -126,7 +126,7 @@ TIMINGS = ("fix", "epoch")
 class RandomWalkEquivalent:
     """A correlated sensor-error component whose correlation time exceeds the record the model
     was fitted on, augmented as the random walk it is equivalent to over that record
-    (:mod:`stochmod.equivalence`).
+    (:mod:`stochmod.fit.equivalence`).
 
     Attributes
     ----------
@@ -618,7 +618,7 @@ class LooselyCoupledFilter:
         accelerometer-bias errors at every turn (see docs/navigation.md, "Real drive").
     record : float, optional
         Length (s) of the record the models were fitted on. A correlated component whose
-        correlation time exceeds it (:func:`stochmod.equivalence.equivalent_term`) is
+        correlation time exceeds it (:func:`stochmod.fit.equivalence.equivalent_term`) is
         augmented as the random walk it is equivalent to over the record, ``q = 2 sigma^2 /
         Tc``, with initial variance ``q * record`` instead of its unidentified stationary
         ``sigma^2``; a warning and ``NavResult.random_walks`` report each one. None (default):

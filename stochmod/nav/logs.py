@@ -3,7 +3,7 @@
 Both files have a header line; names are matched case-insensitively and surrounding spaces
 are ignored. Every problem (missing or unknown column, NaN, time not strictly increasing,
 latitude out of range, non-positive standard deviation) raises
-:class:`~stochmod.errors.InputError` naming the file, the column and the row.
+:class:`~stochmod.core.errors.InputError` naming the file, the column and the row.
 
 IMU file, one of two layouts (body x forward / y right / z down, with respect to inertial
 space)::
@@ -27,11 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from stochmod.errors import InputError, StochmodError
-from stochmod.model import Model, model_from_spec
+from stochmod.core.errors import InputError, StochmodError
+from stochmod.core.model import Model
+from stochmod.plugin.spec import model_from_spec
 from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
-from stochmod.registry import readers
+from stochmod.plugin.registry import readers
 
 __all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "calibration_record",
            "IMU_COLUMNS", "GNSS_COLUMNS"]

@@ -15,7 +15,7 @@ from typing import NamedTuple
 import attrs
 import numpy as np
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import earth, frames
 
 __all__ = [

@@ -9,8 +9,8 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
-from stochmod._fields import array_field
-from stochmod.errors import InputError
+from stochmod.core.fields import array_field
+from stochmod.core.errors import InputError
 
 __all__ = ["ImuData", "GnssData", "TrajectoryArrays", "IMU_KINDS", "check_time"]
 

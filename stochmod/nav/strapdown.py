@@ -33,7 +33,7 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import earth, frames
 from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 

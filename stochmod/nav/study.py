@@ -20,12 +20,12 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod._validation import check_positive_int
-from stochmod.errors import InputError, SpecError
-from stochmod.classical.build import family_for
-from stochmod.datasheet import signal_unit
-from stochmod.equivalence import beyond_record
-from stochmod.model import Model
+from stochmod.core.checks import check_positive_int
+from stochmod.core.errors import InputError, SpecError
+from stochmod.fit.classical.build import family_for
+from stochmod.core.units import signal_unit
+from stochmod.fit.equivalence import beyond_record
+from stochmod.core.model import Model
 from stochmod.nav import earth
 from stochmod.nav.emulate import (
     AXES,
@@ -39,7 +39,7 @@ from stochmod.nav.emulate import (
 from stochmod.nav.alignment import InitialState
 from stochmod.nav.filter import LooselyCoupledFilter
 from stochmod.nav.records import ImuData
-from stochmod.reporting import format_table
+from stochmod.core.tables import format_table
 
 __all__ = [
     "DEFAULT_PROFILE",
@@ -365,7 +365,7 @@ def truth_over_record(truth: Mapping[str, Model], record: float
     """Per-axis truth models as they are over a record of `record` s.
 
     A one-state correlated component whose correlation time exceeds the record
-    (:func:`stochmod.equivalence.equivalent_term`) is, over it, the random walk of the same
+    (:func:`stochmod.fit.equivalence.equivalent_term`) is, over it, the random walk of the same
     driving intensity ``q`` (``2 sigma^2 / Tc`` for a Gauss-Markov process) started at a draw of
     variance ``q * record``, the filter's ``record`` rule (docs/navigation.md, "Correlated
     components beyond the record"): its fitted stationary sigma is not identified by the record.

@@ -8,7 +8,8 @@ from collections.abc import Callable, Iterator
 import pytest
 
 import stochmod
-from stochmod.process import Process
+from stochmod import sdk
+from stochmod.core.process import Process
 
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
@@ -24,7 +25,7 @@ def register() -> Iterator[Callable[[type[Process]], type[Process]]]:
 
     def add(cls: type[Process]) -> type[Process]:
         class Plugin:
-            @stochmod.hookimpl
+            @sdk.hookimpl
             def stochmod_processes(self) -> list[type[Process]]:
                 return [cls]
 

@@ -19,10 +19,10 @@ from hypothesis import HealthCheck, Phase, find, given, settings
 from scipy.signal import lfilter
 
 import stochmod
-from stochmod.errors import InputError
-from stochmod.params import DOMAINS, Parameter, get_domain
-from stochmod.process import Process, as_generator
-from stochmod.statespace import ContinuousBlock, StateSpaceBlock
+from stochmod.core.errors import InputError
+from stochmod.core.params import DOMAINS, Parameter, get_domain
+from stochmod.core.process import Process, as_generator
+from stochmod.core.statespace import ContinuousBlock, StateSpaceBlock
 from stochmod.testing import (
     CHECKS,
     ConformanceReport,
@@ -433,7 +433,7 @@ def test_wv_rows_check_holds_a_kernel_to_the_rows_bit_for_bit():
     """check_wv_rows also runs a family's haar_wv_kernel (Process.haar_wv_kernel) on each row:
     GM's and WN's kernels give their rows' digits; a kernel one ulp off, or one that
     overwrites the WV instead of adding to it, fails."""
-    from stochmod.process import wv_kernel
+    from stochmod.core.process import wv_kernel
     from stochmod.testing import check_wv_rows
     from stochmod_gm import GM
     from stochmod_wn import WN

@@ -14,8 +14,8 @@ import attrs
 import numpy as np
 import pytest
 
-from stochmod.fit.weightings import DIAGONAL, Weighting, WeightingInput, WeightingMatrix, get_weighting
-from stochmod.registry import weightings
+from stochmod.fit.weighting_plugins import DIAGONAL, Weighting, WeightingInput, WeightingMatrix, get_weighting
+from stochmod.plugin.registry import weightings
 from stochmod.testing import check_weighting
 
 FREQ = 100.0

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import stochmod
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import (
     LooselyCoupledFilter,
     Segment,

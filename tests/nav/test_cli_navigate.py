@@ -208,10 +208,10 @@ def test_read_calibration_round_trip_and_errors(recording, tmp_path) -> None:
         assert models[axis] == MODELS[axis]
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"freq": FS, "columns": {"gyro_x": {"model": GYRO.to_spec()}}}))
-    with pytest.raises(stochmod.errors.InputError, match=r"no column\(s\) \['gyro_y'"):
+    with pytest.raises(stochmod.core.errors.InputError, match=r"no column\(s\) \['gyro_y'"):
         read_calibration(bad)
     bad.write_text("{not json")
-    with pytest.raises(stochmod.errors.InputError, match="not a JSON file"):
+    with pytest.raises(stochmod.core.errors.InputError, match="not a JSON file"):
         read_calibration(bad)
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import (
     GnssData,
     ImuData,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import LooselyCoupledFilter
 import stochmod.nav.filter as nf
 

@@ -9,7 +9,7 @@ import pytest
 from scipy.stats import chi2
 
 import stochmod
-from stochmod.errors import InputError, SpecError
+from stochmod.core.errors import InputError, SpecError
 from stochmod.nav import (
     GnssData,
     InitialState,
@@ -25,7 +25,7 @@ from stochmod.nav import (
 from stochmod.nav.emulate import AXES
 from stochmod.nav.filter import _axis_models, _discretise, _Sensors
 from stochmod.nav.measurements import heading_jacobian
-from stochmod.statespace import ContinuousBlock, van_loan
+from stochmod.core.statespace import ContinuousBlock, van_loan
 
 from ._emulated import imu_with_biases
 

@@ -10,7 +10,7 @@ import pytest
 from scipy.stats import chi2
 
 import stochmod
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import (
     InitialState,
     LooselyCoupledFilter,

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import LooselyCoupledFilter, frames
 from stochmod.nav.filter import error_dynamics, midpoint_pva
 

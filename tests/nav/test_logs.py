@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav.logs import read_gnss_csv, read_imu_csv
 
 RNG = np.random.default_rng(7)

@@ -4,7 +4,7 @@ ten minutes at 100 Hz, second-order convergence, rates and increments agree."""
 import numpy as np
 import pytest
 
-from stochmod.errors import InputError
+from stochmod.core.errors import InputError
 from stochmod.nav import Segment, earth, frames, ideal_imu, strapdown, trajectory_from_profile
 from stochmod.nav.emulate import _ProfileMotion
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.errors import InputError, SpecError
+from stochmod.core.errors import InputError, SpecError
 from stochmod.nav import earth
 from stochmod.nav.emulate import AXES, Segment, Trajectory
 from stochmod.nav.study import (OutageStudy, horizontal_error, max_outage_errors, outage_study,

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import stochmod
+from stochmod import sdk
 
 from stochmod_ma1.jsonl import JsonLinesReader
 from stochmod_ma1.weighting import RELATIVE, RelativeWeighting, stochmod_weightings
@@ -62,10 +63,10 @@ class MA1(stochmod.Process):
 
     family: ClassVar[str] = "MA1"
     description: ClassVar[str] = "first-order moving average X_t = e_t + theta e_{t-1}"
-    parameter_specs: ClassVar[tuple[stochmod.Parameter, ...]] = (
-        stochmod.Parameter("theta", "correlation", "1", "MA coefficient (|theta| < 1)",
+    parameter_specs: ClassVar[tuple[sdk.Parameter, ...]] = (
+        sdk.Parameter("theta", "correlation", "1", "MA coefficient (|theta| < 1)",
                            role="shape"),
-        stochmod.Parameter("sigma2", "positive", "u^2", "innovation variance per sample",
+        sdk.Parameter("sigma2", "positive", "u^2", "innovation variance per sample",
                            role="variance"),
     )
 
@@ -92,10 +93,10 @@ class MA1(stochmod.Process):
         """The current and the previous innovation."""
         return ("e", "e_prev")
 
-    def discrete_block(self, freq: float) -> stochmod.StateSpaceBlock:
+    def discrete_block(self, freq: float) -> sdk.StateSpaceBlock:
         """The block at the native step 1/freq."""
         theta, sigma2 = self._values()
-        return stochmod.StateSpaceBlock(
+        return sdk.StateSpaceBlock(
             state_names=self.state_names,
             Phi=np.array([[0.0, 0.0], [1.0, 0.0]]),
             Q=np.diag([sigma2, 0.0]),
@@ -147,13 +148,13 @@ class MA1(stochmod.Process):
         sigma2 = 2 * wv[0] / (1 - theta + theta**2) / count
         return self.with_values(theta=float(theta), sigma2=float(sigma2))
 
-    def physical(self, freq: float) -> dict[str, stochmod.PhysicalValue]:
+    def physical(self, freq: float) -> dict[str, sdk.PhysicalValue]:
         """Innovation sigma (u); white-noise density at long averaging times (u*sqrt(s))."""
         theta, sigma2 = self._values()
         return {
-            "sigma": stochmod.PhysicalValue(math.sqrt(sigma2), "u",
+            "sigma": sdk.PhysicalValue(math.sqrt(sigma2), "u",
                                             "innovation standard deviation"),
-            "N": stochmod.PhysicalValue(abs(1 + theta) * math.sqrt(sigma2 / freq), "u*sqrt(s)",
+            "N": sdk.PhysicalValue(abs(1 + theta) * math.sqrt(sigma2 / freq), "u*sqrt(s)",
                                         "white-noise density seen at long averaging times"),
         }
 
@@ -167,19 +168,19 @@ class MA1(stochmod.Process):
         return cls(theta=0.5, sigma2=1.0)
 
 
-@stochmod.hookimpl
+@sdk.hookimpl
 def stochmod_processes() -> list[type[stochmod.Process]]:
     """Register MA1."""
     return [MA1]
 
 
-@stochmod.hookimpl
+@sdk.hookimpl
 def stochmod_readers() -> list[JsonLinesReader]:
     """Register the JSON Lines reader (a log format, see jsonl.py)."""
     return [JsonLinesReader()]
 
 
-@stochmod.hookimpl
+@sdk.hookimpl
 def stochmod_combiners() -> list[Any]:
     """Register the median combiner (a second plugin point served by the same package)."""
     from stochmod_ma1.median import MedianCombiner

@@ -15,7 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 import stochmod
-from stochmod.io import Reader, Recording
+from stochmod.io.recording import Reader, Recording
 
 __all__ = ["JsonLinesReader"]
 

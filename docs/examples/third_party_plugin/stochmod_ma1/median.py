@@ -15,7 +15,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 import stochmod
-from stochmod.combination import as_sensor_array
+from stochmod import sdk
+from stochmod.redundant.combination import as_sensor_array
 
 __all__ = ["MedianCombiner"]
 
@@ -28,7 +29,7 @@ class MedianCombiner:
     assumes: ClassVar[str] = ("independent sensors with one common Gaussian error level; a minority "
                               "may be faulty (outliers are ignored, not weighted)")
 
-    def combine(self, x: Any, **options: Any) -> stochmod.CombinationResult:
+    def combine(self, x: Any, **options: Any) -> sdk.CombinationResult:
         """Median over the sensors of `x` (n, T) or (n, T, 3); takes no options."""
         if options:
             raise stochmod.InputError(f"the 'median' combiner takes no options, got {sorted(options)}")
@@ -42,7 +43,7 @@ class MedianCombiner:
         signal = np.sum(weights * x, axis=0)
         mad = np.median(np.abs(x - signal), axis=0).mean(axis=0)  # per axis
         s2 = (1.4826 * mad) ** 2
-        return stochmod.CombinationResult(
+        return sdk.CombinationResult(
             signal=signal, weights=weights, variance=np.broadcast_to(np.pi * s2 / (2 * n), signal.shape).copy(),
             method=self.name, assumes=self.assumes,
             sensor_variance=np.broadcast_to(s2, (n, *np.shape(s2))).copy(),

@@ -14,7 +14,8 @@ import attrs
 import numpy as np
 
 import stochmod
-from stochmod.fit.weightings import Weighting, WeightingInput, WeightingMatrix
+from stochmod import sdk
+from stochmod.fit.weighting_plugins import Weighting, WeightingInput, WeightingMatrix
 
 __all__ = ["RelativeWeighting", "RELATIVE", "stochmod_weightings"]
 
@@ -39,7 +40,7 @@ class RelativeWeighting(Weighting):
 RELATIVE = RelativeWeighting()
 
 
-@stochmod.hookimpl
+@sdk.hookimpl
 def stochmod_weightings() -> list[Any]:
     """Register the relative weighting."""
     return [RELATIVE]

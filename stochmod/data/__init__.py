@@ -1,0 +1,3 @@
+"""Bundled example recordings (simulated, with known truth)."""
+
+__all__: list[str] = []

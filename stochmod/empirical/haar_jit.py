@@ -1,0 +1,212 @@
+"""Optional compiled loops (numba) for the Haar MODWT pyramid's hot paths.
+
+numba is an optional dependency (the ``fast`` extra). Without it, :data:`AVAILABLE` is False
+and :mod:`stochmod.empirical.modwt` and :mod:`stochmod.empirical.robust_wv` run their pure-numpy
+paths, which give the same numbers up to the order in which sums are accumulated (and, for
+the robust power sums, the single precision of the numpy path, see
+:mod:`stochmod.empirical.robust_wv`). Setting the environment variable
+``STOCHMOD_DISABLE_JIT=1`` before importing stochmod forces the numpy paths.
+
+Why compiled loops (docs/performance.md): numpy needs three calls per Haar level (a
+difference, its sum of squares, the in-place sum of the two halves) and, for the robust
+estimator, about ten more per block for the power sums; each call reads and writes its
+block. One loop does all of it per sample: two loads, one store and a few flops.
+
+Every coefficient ``V_{j-1,t+s} - V_{j-1,t}`` and every sum ``V_{j-1,t} + V_{j-1,t+s}`` is
+the same floating-point operation as in the numpy paths; only the accumulation order of the
+sums of squares differs (``reassoc`` lets LLVM keep several partial sums in SIMD lanes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stochmod.core.jit import AVAILABLE, compiled
+
+__all__ = ["AVAILABLE", "compiled", "haar_level_coefficients", "haar_level_power_sums",
+           "haar_sweep"]
+
+_BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
+_GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
+
+
+
+@compiled
+def _level(cur: np.ndarray, out: np.ndarray, own: int, size: int,
+           step: int) -> float:  # pragma: no cover
+    """``out[t] = cur[t] + cur[t + step]`` for t < size; return the sum of
+    ``(cur[t + step] - cur[t])^2`` over t < own (<= size). `out` must not overlap `cur`."""
+    a_ = cur[:size]
+    b_ = cur[step : step + size]
+    o = out[:size]
+    acc = 0.0
+    for t in range(own):
+        a = a_[t]
+        b = b_[t]
+        acc += (b - a) * (b - a)
+        o[t] = a + b
+    for t in range(own, size):
+        o[t] = a_[t] + b_[t]
+    return acc
+
+
+@compiled
+def _last_level(cur: np.ndarray, out: np.ndarray, own: int, step: int,
+                write: bool) -> float:  # pragma: no cover
+    """Sum of ``(cur[t + step] - cur[t])^2`` over t < own and, if `write`,
+    ``out[t] = cur[t] + cur[t + step]`` (`out` may be `cur` itself: t + step is read before t
+    is written)."""
+    a_ = cur[:own]
+    b_ = cur[step : step + own]
+    acc = 0.0
+    for t in range(own):
+        d = b_[t] - a_[t]
+        acc += d * d
+    if write:
+        o = out[:own]
+        for t in range(own):
+            o[t] = a_[t] + b_[t]
+    return acc
+
+
+@compiled
+def haar_sweep(src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
+               bufs: np.ndarray, chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
+    """Haar levels ``first .. first + k - 1`` in one pass over memory, blocked as
+    :func:`stochmod.empirical.modwt._haar_sweep` (same arguments, but two block buffers, the
+    rows of `bufs`, that the levels of a block alternate between; the sums of the unscaled
+    W^2 go to ``totals[:k]``)."""
+    halo = 0
+    for i in range(k):
+        halo += 2 ** (first - 1 + i)
+    end = n_valid - halo
+    for i in range(k):
+        totals[i] = 0.0
+    for s in range(0, end, chunk):
+        e = min(s + chunk, end)
+        tail = e == end  # the last block also owns the tails of the shallower levels
+        size = (n_valid if tail else e + halo) - s  # samples of V_{first-1} read
+        for i in range(k):
+            step = 2 ** (first - 1 + i)
+            size -= step
+            own = size if tail else e - s
+            if i == k - 1:  # own == e - s: the block's last V goes to the work array
+                if i == 0:
+                    totals[i] += _last_level(src[s:], v[s:], own, step, not last)
+                else:
+                    totals[i] += _last_level(bufs[(i - 1) % 2], v[s:], own, step, not last)
+            elif i == 0:
+                totals[i] += _level(src[s:], bufs[0], own, size, step)
+            else:
+                totals[i] += _level(bufs[(i - 1) % 2], bufs[i % 2], own, size, step)
+
+
+@compiled
+def haar_level_coefficients(v: np.ndarray, n_valid: int, step: int, factor: float,
+                            update: bool, w_out: np.ndarray) -> float:  # pragma: no cover
+    """One Haar level with its coefficients, in one pass over the unscaled sums
+    ``V = v[:n_valid]``: ``w_out[t] = (V[t + step] - V[t]) * factor`` for the
+    ``M = n_valid - step`` interior positions; returns the sum of ``(V[t + step] - V[t])^2``;
+    if `update`, ``v[t]`` becomes ``V[t] + V[t + step]`` (t < M, the next level's sums),
+    block by block through a buffer, so that the in-place update reads only old values.
+    The loop of :func:`stochmod.empirical.modwt.haar_differences` and its caller's scaling."""
+    m = n_valid - step
+    acc = 0.0
+    buf = np.empty(_BLOCK)
+    for s in range(0, m, _BLOCK):
+        e = min(s + _BLOCK, m)
+        n = e - s
+        a_ = v[s:e]  # slices indexed from 0: no wrap-around checks, so LLVM vectorises
+        b_ = v[s + step : e + step]
+        w_ = w_out[s:e]
+        d_ = buf[:n]
+        for t in range(n):
+            a = a_[t]
+            b = b_[t]
+            d = b - a
+            acc += d * d
+            w_[t] = d * factor
+            d_[t] = a + b
+        if update:
+            for t in range(n):
+                a_[t] = d_[t]
+    return acc
+
+
+@compiled
+def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: int,
+                          factor: float, core: float, sums: np.ndarray, big_idx: np.ndarray,
+                          big_w: np.ndarray, sub_stride: int, left: np.ndarray,
+                          right: np.ndarray) -> int:  # pragma: no cover
+    """One Haar level of the robust estimator in one pass over ``src[:n_valid]`` (the
+    unscaled sums ``V_{j-1}``).
+
+    With ``w_t = (src[t + step] - src[t]) * factor`` and ``u = w^2``, accumulates
+    ``sum u^p`` (p = 1..5) over ``u <= core`` into ``sums[1:6]`` (float64), records the index
+    and value of the others in `big_idx` / `big_w` (as many as fit) and writes the next
+    level's sums ``dst[t] = src[t] + src[t + step]``, block by block through a buffer, so
+    that `dst` may be `src` itself (in place: a block is written back after it was read, and
+    its lines are still in cache). Returns the number of coefficients above `core` (more than
+    ``big_idx.size`` means some were not recorded).
+
+    Also copies the next level's subsample for its start (``robust_wv._start``) while the
+    block is in cache: ``left[k] = dst[k sub_stride]`` and
+    ``right[k] = dst[k sub_stride + 2 step]`` for k < ``left.size``.
+    """
+    m = n_valid - step
+    cap = big_idx.size
+    nb = 0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    s4 = 0.0
+    s5 = 0.0
+    buf = np.empty(_BLOCK)
+    sums_buf = np.empty(_BLOCK)
+    for s in range(0, m, _BLOCK):
+        e = min(s + _BLOCK, m)
+        n = e - s
+        a_ = src[s:e]  # slices indexed from 0: no wrap-around checks, so LLVM vectorises
+        b_ = src[s + step : e + step]
+        d_ = sums_buf[:n]
+        w_ = buf[:n]
+        for g in range(0, n, _GROUP):  # groups: only those with a coefficient outside are scanned
+            h = min(g + _GROUP, n)
+            outside = 0
+            for t in range(g, h):
+                a = a_[t]
+                b = b_[t]
+                d_[t] = a + b
+                w = (b - a) * factor
+                w_[t] = w
+                u = w * w
+                outside += u > core
+                u = u if u <= core else 0.0
+                u2 = u * u
+                s1 += u
+                s2 += u2
+                s3 += u2 * u
+                s4 += u2 * u2
+                s5 += u2 * u2 * u
+            if outside:
+                for t in range(g, h):
+                    w = w_[t]
+                    if w * w > core:
+                        if nb < cap:
+                            big_idx[nb] = s + t
+                            big_w[nb] = w
+                        nb += 1
+        out_ = dst[s:e]
+        for t in range(n):
+            out_[t] = d_[t]
+        for pos, out in ((0, left), (2 * step, right)):  # subsample positions in [s, e)
+            k = max(0, (s - pos + sub_stride - 1) // sub_stride)
+            while k < out.size and k * sub_stride + pos < e:
+                out[k] = d_[k * sub_stride + pos - s]
+                k += 1
+    sums[1] += s1
+    sums[2] += s2
+    sums[3] += s3
+    sums[4] += s4
+    sums[5] += s5
+    return nb

@@ -1,0 +1,277 @@
+"""Maximal overlap discrete wavelet transform (MODWT): filters, gains and interior coefficients.
+
+Conventions (Percival & Walden 2000, ch. 5; Stebler et al. 2014, eqs. 3-6 and 18):
+
+- The level-1 MODWT filters are PyWavelets' orthogonal filters in *convolution* order,
+  rescaled by ``1/sqrt(2)``: ``h_1 = dec_hi[::-1] / sqrt(2)`` (wavelet) and
+  ``g_1 = dec_lo[::-1] / sqrt(2)`` (scaling), so that ``sum h_1 = 0``, ``sum h_1^2 = 1/2``.
+  For Haar, ``h_1 = (+1/2, -1/2)``, the sign of eq. 18.
+- The level-j wavelet filter (eq. 5) has width ``L_j = (2^j - 1)(L_1 - 1) + 1``; for Haar
+  ``L_j = 2^j`` and ``h_{j,l} = +1/2^j`` for ``l < 2^(j-1)``, ``-1/2^j`` after.
+- Coefficients are ``W_{j,t} = sum_l h_{j,l} x_{t-l}``; only the *interior* ones, which need
+  no boundary rule, are returned: ``t = L_j - 1, ..., N - 1`` (0-based), ``M_j = N - L_j + 1``
+  of them (eq. 9).
+
+The transform is computed with the MODWT pyramid algorithm restricted to the interior
+(``L_1`` multiply-adds per sample and level, processed in cache-sized chunks, in place on one
+work array), never with ``pywt.swt`` (whose cost explodes at deep levels and which needs a
+power-of-two length). For Haar the pyramid is a moving-sum doubling: each level costs one
+addition and one subtraction per sample; unlike differences of one cumulative sum, its
+round-off does not grow with N or with the signal's mean. When only the sums of squares are
+needed (the wavelet variance), the shallow Haar levels are computed several at a time, block
+by block, in one pass over memory (:func:`_haar_sweep`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+from numpy.typing import ArrayLike
+
+from stochmod.core.checks import as_signal
+from stochmod.core.filters import check_level, default_levels, modwt_filters
+from stochmod.empirical import haar_jit
+
+__all__ = [
+    "modwt_coefficients",
+    "iter_modwt",
+    "pyramid",
+    "haar_differences",
+]
+
+_CHUNK = 1 << 16  # samples per block of the pyramid: the working set stays in cache
+_HALO = 16  # a sweep of several Haar levels recomputes at most _CHUNK / _HALO samples per block
+_DOT = 8192  # dot products in pieces below OpenBLAS's threading threshold (n > 10000): threaded
+# BLAS calls on such short vectors stall for milliseconds when the other cores are busy
+
+
+def _sumsq(w: np.ndarray) -> float:
+    """Sum of squares of a contiguous vector, by single-threaded dot products of _DOT pieces."""
+    whole = w.size - w.size % _DOT
+    rows = w[:whole].reshape(-1, _DOT)
+    rest = w[whole:]
+    return float(np.vecdot(rows, rows).sum()) + float(np.dot(rest, rest))
+
+
+def _haar_block(levels: int, first: int, chunk: int) -> int:
+    """Number of Haar levels, from `first`, that one sweep of `chunk`-sample blocks serves.
+
+    A sweep of k levels recomputes a halo of ``2^(first-1) (2^k - 1)`` samples per block, kept
+    at most ``chunk / _HALO``; a lone level needs no halo.
+    """
+    k = 1
+    while first + k <= levels and 2 ** (first - 1) * (2 ** (k + 1) - 1) <= chunk // _HALO:
+        k += 1
+    return k
+
+
+def _haar_sweep(
+    src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
+    scratch: np.ndarray, local: np.ndarray,
+) -> list[float]:
+    """Haar levels ``first .. first + k - 1`` in one pass over memory; return their sums of W^2.
+
+    `src[:n_valid]` holds the unscaled sums V_{first-1} (the signal itself for first = 1);
+    ``v[:n_valid - halo]`` receives V_{first+k-1} (skipped when `last`: nothing follows).
+    Each block of ``_CHUNK`` output samples is read once with its halo of
+    ``2^(first-1) (2^k - 1)`` samples, and all k levels are computed in the cache-sized
+    `local` buffer; every W and V value is the same floating-point operation as in a
+    level-by-level pyramid (only the order in which the squares are summed differs).
+    """
+    chunk = _CHUNK
+    steps = [2 ** (first - 1 + i) for i in range(k)]
+    halo = sum(steps)
+    end = n_valid - halo  # M of the block's last level = length of its V
+    totals = [0.0] * k
+    for s in range(0, end, chunk):
+        e = min(s + chunk, end)
+        tail = e == end  # the last block also owns the tails of the shallower levels
+        size = (n_valid if tail else e + halo) - s  # samples of V_{first-1} read
+        cur, base = src, s  # level input: cur[base : base + size]
+        for i, step in enumerate(steps):
+            size -= step  # M of this level within the block
+            own = size if tail else e - s
+            w = np.subtract(cur[base + step : base + step + own], cur[base : base + own],
+                            out=scratch[:own])
+            totals[i] += _sumsq(w)
+            if i < k - 1:  # V of this level, over the block and what the next levels need
+                np.add(cur[base : base + size], cur[base + step : base + step + size],
+                       out=local[:size])
+            elif not last:  # the block's last V goes to the work array
+                own = e - s
+                np.add(cur[base : base + own], cur[base + step : base + step + own],
+                       out=v[s:e])
+            cur, base = local, 0
+    return totals
+
+
+def haar_differences(
+    v: np.ndarray, n_valid: int, step: int, update: bool, scratch: np.ndarray
+) -> Iterator[tuple[int, np.ndarray]]:
+    """One Haar level over the unscaled sums ``V = v[:n_valid]``, block by block, in place.
+
+    Yields ``(s, d)`` with ``d = V[s + step + i] - V[s + i]`` (``2^j W_j`` up to the sign)
+    for the ``M = n_valid - step`` interior positions, ``_CHUNK`` at a time, in a view of
+    `scratch` that the caller may overwrite. After each yield, if `update`, ``v[s:s+len(d)]``
+    becomes ``V[s + i] + V[s + step + i]`` (the next level's sums): only positions the later
+    blocks no longer read.
+    """
+    m = n_valid - step
+    for s in range(0, m, _CHUNK):
+        e = min(s + _CHUNK, m)
+        yield s, np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
+        if update:
+            np.add(v[s:e], v[s + step : e + step], out=v[s:e])
+
+
+def pyramid(
+    x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None,
+    sumsq: bool = True,
+) -> Iterator[tuple[int, float, int]]:
+    """Run the interior MODWT pyramid; yield ``(j, sum of W_j^2, M_j)`` for j = 1..levels.
+
+    When `w_out` (length >= M_1) is given, ``w_out[:M_j]`` holds the level-j coefficients at
+    the time of the yield (overwritten at the next level). With ``sumsq=False`` (and `w_out`)
+    the sums of squares are not accumulated (0.0 is yielded): callers that only need the
+    coefficients. Extra memory: one copy of `x`
+    and two blocks of ``_CHUNK + _CHUNK / _HALO`` samples. For Haar without `w_out`, levels
+    served by one sweep are yielded together after it.
+    """
+    h, g = modwt_filters(wavelet)
+    width1 = h.size
+    haar = width1 == 2
+    if haar and w_out is None:
+        yield from _haar_pyramid(x, levels)
+        return
+    v = np.array(x, dtype=np.float64, copy=True)  # V_{j-1} interior (Haar: unscaled sums)
+    n_valid = v.size
+    item = v.strides[0]
+    sign = 1.0 if h[0] > 0 else -1.0
+    coef = np.vstack([h[::-1], g[::-1]])  # rows: taps at offsets 0, step, ..., (L1-1) step
+    scratch = np.empty(_CHUNK)
+    for j in range(1, levels + 1):
+        step = 2 ** (j - 1)
+        m = n_valid - step * (width1 - 1)
+        update = j < levels  # the scaling coefficients are not needed after the last level
+        rows = coef if update else coef[:1]
+        total = 0.0
+        if haar and haar_jit.AVAILABLE:  # the loop below and the scaling, compiled
+            total = haar_jit.haar_level_coefficients(v, n_valid, step, sign * 0.5**j, update,
+                                                     w_out)
+            total = total if sumsq else 0.0
+        elif haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
+            for s, w in haar_differences(v, n_valid, step, update, scratch):
+                if sumsq:
+                    total += _sumsq(w)
+                if w_out is not None:
+                    np.multiply(w, sign * 0.5**j, out=w_out[s : s + w.size])
+        else:
+            for s in range(0, m, _CHUNK):
+                e = min(s + _CHUNK, m)
+                view = as_strided(v[s:], shape=(width1, e - s), strides=(step * item, item))
+                out = np.einsum("ij,jk->ik", rows, view)  # no BLAS threads (see _DOT)
+                if sumsq:
+                    total += _sumsq(out[0])
+                if w_out is not None:
+                    w_out[s:e] = out[0]
+                if update:
+                    v[s:e] = out[1]
+        n_valid = m
+        yield j, (total * 0.25**j if haar else total), m
+
+
+def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]]:
+    """:func:`pyramid` for Haar without coefficients: several levels per pass over memory.
+
+    The shallow levels, whose filters are short next to a block, are computed block by block
+    through all of them at once (:func:`_haar_sweep`); the first level reads `x` directly, so
+    no copy of the signal is made beyond the one work array of the sums.
+    """
+    v = np.empty(x.size)
+    size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
+    bufs = np.empty((2, size))  # the block buffers (numpy: scratch and local)
+    scratch, local = bufs
+    # the compiled loops keep reassociated partial sums whose order follows the memory layout:
+    # a strided view (a column of a 2-D array) is made contiguous so that it gives the digits
+    # of the same data stored contiguously
+    src = np.ascontiguousarray(x) if haar_jit.AVAILABLE else x
+    n_valid, j = x.size, 1
+    while j <= levels:
+        k = _haar_block(levels, j, _CHUNK)
+        last = j + k - 1 == levels
+        if haar_jit.AVAILABLE:
+            totals = np.empty(k)
+            haar_jit.haar_sweep(src, v, n_valid, j, k, last, bufs, _CHUNK, totals)
+        else:
+            totals = _haar_sweep(src, v, n_valid, j, k, last, scratch, local)
+        for i, total in enumerate(totals):
+            n_valid -= 2 ** (j - 1 + i)
+            yield j + i, total * 0.25 ** (j + i), n_valid
+        src, j = v, j + k
+
+
+def modwt_coefficients(x: ArrayLike, level: int, wavelet: str = "haar") -> np.ndarray:
+    """Interior MODWT wavelet coefficients of `x` at one level.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Finite signal, any length N >= L_j, in its own unit.
+    level : int
+        Level j, 1 <= j <= :func:`max_level` (N, wavelet).
+    wavelet : str
+        Orthogonal PyWavelets wavelet name (default "haar").
+
+    Returns
+    -------
+    ndarray, shape (M_j,)
+        ``W_{j,t} = sum_l h_{j,l} x_{t-l}`` for ``t = L_j - 1 .. N - 1`` (the coefficients that
+        need no boundary rule), in the unit of `x`; ``M_j = N - L_j + 1``. Equals
+        ``numpy.convolve(x, modwt_filter(level, wavelet), mode="valid")``.
+
+    Raises
+    ------
+    InputError
+        Bad signal (empty, NaN/inf, not 1-D, non-numeric), bad level, unknown wavelet.
+    """
+    x = as_signal(x, name="x", min_length=1)
+    modwt_filters(wavelet)
+    level = check_level(x.size, level, wavelet)
+    buf = np.empty(x.size)
+    for j, _, m in pyramid(x, level, wavelet, buf):
+        if j == level:
+            return buf[:m].copy()
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def iter_modwt(
+    x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
+) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(j, W_j)``, the interior MODWT coefficients of every level j = 1..`levels`.
+
+    One pass of the pyramid serves all levels (cost O(N L_1) per level). Each yielded array
+    is new (length ``M_j``), so callers may keep them, e.g. for cross-level covariances.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Finite signal.
+    levels : int, optional
+        Number of levels J (default :func:`default_levels`).
+    wavelet : str
+        Orthogonal PyWavelets wavelet name.
+    """
+    x = as_signal(x, name="x", min_length=1)
+    modwt_filters(wavelet)
+    levels = default_levels(x.size, wavelet) if levels is None else check_level(
+        x.size, levels, wavelet, name="levels"
+    )
+
+    def gen() -> Iterator[tuple[int, np.ndarray]]:
+        buf = np.empty(x.size)
+        for j, _, m in pyramid(x, levels, wavelet, buf):
+            yield j, buf[:m].copy()
+
+    return gen()
