@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -93,10 +94,17 @@ def test_type_checking_block_names_the_lazy_names() -> None:
     import ast
     import inspect
 
+    import importlib
+
     import stochmod
     import stochmod.sdk
 
-    for module in (stochmod, stochmod.sdk):
+    packages = [importlib.import_module(f"stochmod.{p.parent.name}")
+                for p in sorted(Path(stochmod.__file__).parent.glob("*/__init__.py"))]
+    lazy = [m for m in (stochmod, stochmod.sdk, *packages) if hasattr(m, "_LAZY")]
+    assert len(lazy) >= 10  # the package, the SDK and every subpackage but cli, nav, testing
+    for module in lazy:
+        assert [n for n in module.__all__ if not hasattr(module, n)] == [], module.__name__
         tree = ast.parse(inspect.getsource(module))
         block = next(n for n in tree.body if isinstance(n, ast.If)
                      and getattr(n.test, "id", None) == "TYPE_CHECKING")
