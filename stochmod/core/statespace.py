@@ -22,6 +22,7 @@ __all__ = [
     "ContinuousBlock",
     "StateSpaceBlock",
     "van_loan",
+    "discretise",
     "compose_steps",
     "stack_blocks",
 ]
@@ -50,6 +51,74 @@ class ContinuousBlock:
     Qc: np.ndarray = attrs.field(converter=_matrix)
 
 
+def discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact discretisation of ``dx = F x dt + dw``, ``E[dw dw'] = W dt`` over `dt`.
+
+    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` (Van Loan's pair) by
+    scaling and squaring: over the sub-step ``h = dt / 2^s`` with ``||F h||_1 <= 1/2`` both are
+    summed to double precision by their power series in scaled form, ``Phi = sum A^k / k!`` and
+    ``Q = sum T_k / (k + 1)`` with ``A = F h``, ``T_0 = W h``, ``T_k = (A T_(k-1) + T_(k-1) A')
+    / k`` (every term bounded by ``||W h|| / k!``, so a Gauss-Markov pole far faster than
+    ``1/dt`` cannot overflow it), and the ``2^s`` sub-steps are composed back exactly by
+    repeated squaring. Van Loan's own block matrix holds ``expm(-F dt)``, which overflows on
+    such a pole; this form never grows. The squarings carry ``Phi - I`` rather than ``Phi`` (``(I + E)^2 = I + 2E + E^2``), so the decay of a slow
+    mode stays exact to rounding however many squarings a fast pole demands.
+
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        Continuous dynamics, 1/s.
+    W : ndarray, shape (n, n)
+        Spectral density of the driving noise (``G Qc G'``), state unit^2 per s.
+    dt : float
+        Step, s.
+
+    Returns
+    -------
+    Phi, Q : ndarray, shape (n, n)
+
+    Raises
+    ------
+    InputError
+        If `F` or `W` holds a non-finite value.
+    """
+    n = F.shape[0]
+    norm = float(np.abs(F).sum(axis=0).max(initial=0.0)) * dt
+    if not (math.isfinite(norm) and np.isfinite(W).all()):
+        raise InputError("the continuous model to discretise holds a non-finite value "
+                         "(a model parameter is infinite or NaN)")
+    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    h = math.ldexp(dt, -s)
+    a = 2.0 * math.ldexp(norm, -s)  # >= ||A|| + ||A'||, at most 1
+    # terms up to order K: the remainder of both series is below (a^K / (K + 1)!) ~ 1e-17
+    K, bound = 1, a / 2.0
+    while bound > 1e-17:
+        K += 1
+        bound *= a / (K + 1)
+    A = F * h
+    # X_k = [A^k | U_(k-1)] with U_0 = W h, U_j = A U_(j-1) + U_(j-1) A': Phi = sum A^k / k!
+    # and Q = sum U_j / (j + 1)!, so both halves of X_k take the coefficient 1 / k!, and one
+    # product A @ X_k advances both (A^k commutes with A)
+    X = np.empty((n, 2 * n))
+    X[:, :n] = A
+    X[:, n:] = W * h
+    acc = X.copy()
+    c = 1.0
+    for k in range(2, K + 1):
+        X = A @ X
+        U = X[:, n:]
+        X[:, n:] = U + U.T
+        c /= k
+        acc += X * c
+    E, Q = acc[:, :n], acc[:, n:]  # Phi - I: squaring it keeps a slow mode's decay exact
+    for _ in range(s):  # (Phi, Q) over 2h from h: Phi^2 = I + 2E + E^2, Q <- Phi Q Phi' + Q
+        EQ = E @ Q
+        Q = 2.0 * Q + EQ + EQ.T + EQ @ E.T
+        E = 2.0 * E + E @ E
+    E[np.diag_indices(n)] += 1.0
+    return E, 0.5 * (Q + Q.T)
+
+
 def van_loan(block: ContinuousBlock, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretisation of a continuous block over `dt` seconds (Van Loan, 1978).
 
@@ -61,7 +130,9 @@ def van_loan(block: ContinuousBlock, dt: float) -> tuple[np.ndarray, np.ndarray]
     Notes
     -----
     Van Loan's block matrix holds ``expm(-F dt)``, which overflows when ``F dt`` is large
-    (a fast Gauss-Markov process over a long filter step). The step is therefore split into
+    (a fast Gauss-Markov process over a long filter step).  Unlike :func:`discretise`, which
+    carries ``Phi - I`` to keep a slow mode's decay exact, this form keeps a deep decay
+    (``exp(-beta dt)`` far below 1e-16) exact, as a family's own block needs. The step is therefore split into
     ``2^s`` sub-steps with ``||F dt / 2^s|| <= 1`` that are composed exactly by repeated
     squaring (:func:`compose_steps`).
     """

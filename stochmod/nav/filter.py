@@ -104,7 +104,7 @@ from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
 from stochmod.nav.alignment import InitialState, align_from_gnss
 from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 from stochmod.core.tables import format_table
-from stochmod.core.statespace import ContinuousBlock, compose_steps
+from stochmod.core.statespace import ContinuousBlock, compose_steps, discretise
 
 __all__ = ["ERROR_MODELS", "LINEARISATIONS", "LooselyCoupledFilter", "NavResult", "NAV_STATES",
            "RandomWalkEquivalent", "TIMINGS", "error_dynamics", "midpoint_pva"]
@@ -431,9 +431,9 @@ def _fill_error_dynamics(F: np.ndarray, lat: float, hgt: float, v: Sequence[floa
     win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
     cor = (win[0] + om * cl, win[1], win[2] - om * sl)
     F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
-    F[3:6, 3:6] = -_skew(cor)
-    F[3:6, 6:9] = _skew(f_n)
-    F[6:9, 6:9] = -_skew(win)
+    F[3:6, 3:6] = -frames.skew(cor)
+    F[3:6, 6:9] = frames.skew(f_n)
+    F[6:9, 6:9] = -frames.skew(win)
 
 
 def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLike,
@@ -500,11 +500,6 @@ def midpoint_pva(start: tuple, end: tuple) -> tuple:
             tuple(0.5 * (a + b) for a, b in zip(v0, v1)), tuple(a * nrm for a in q))
 
 
-def _skew(v: Sequence[float]) -> np.ndarray:
-    x, y, z = v
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
 def _left_jacobian(phi: np.ndarray) -> np.ndarray:
     """Left Jacobian of SO(3) at the rotation vector `phi` (rad), ``I + (1 - cos a)/a^2 [phi x]
     + (a - sin a)/a^3 [phi x]^2`` with ``a = |phi|``: ``Exp(phi + e) = Exp(J_l(phi) e) Exp(phi)``
@@ -512,77 +507,13 @@ def _left_jacobian(phi: np.ndarray) -> np.ndarray:
     filter", the SO(3) Jacobians and the ESKF reset, Section 7.2; its first-order form there
     is ``I + [phi/2 x]``)."""
     a2 = float(phi @ phi)
-    S = _skew(phi)
+    S = frames.skew(phi)
     if a2 < 1e-8:
         b, c = 0.5 - a2 / 24.0, 1.0 / 6.0 - a2 / 120.0
     else:
         a = math.sqrt(a2)
         b, c = (1.0 - math.cos(a)) / a2, (a - math.sin(a)) / (a2 * a)
     return np.eye(3) + b * S + c * (S @ S)
-
-
-def _dcm(q: Sequence[float]) -> np.ndarray:
-    """C_nb of a scalar-first quaternion tuple (Gonzalez eq. 14), without numpy overhead."""
-    q0, q1, q2, q3 = q
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
-        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
-
-
-def _discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact discretisation of ``dx = F x dt + dw``, ``E[dw dw'] = W dt`` over `dt`.
-
-    ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)' ds`` (Van Loan's pair) by
-    scaling and squaring: over the sub-step ``h = dt / 2^s`` with ``||F h||_1 <= 1/2`` both are
-    summed to double precision by their power series in scaled form, ``Phi = sum A^k / k!`` and
-    ``Q = sum T_k / (k + 1)`` with ``A = F h``, ``T_0 = W h``, ``T_k = (A T_(k-1) + T_(k-1) A')
-    / k`` (every term bounded by ``||W h|| / k!``, so a Gauss-Markov pole far faster than
-    ``1/dt`` cannot overflow it), and the ``2^s`` sub-steps are composed back exactly by
-    repeated squaring. Van Loan's own block matrix holds ``expm(-F dt)``, which overflows on
-    such a pole; this form never grows. The squarings carry ``Phi - I`` rather than ``Phi`` (``(I + E)^2 = I + 2E + E^2``), so the decay of a slow
-    mode stays exact to rounding however many squarings a fast pole demands.
-
-    Raises
-    ------
-    InputError
-        If `F` or `W` holds a non-finite value.
-    """
-    n = F.shape[0]
-    norm = float(np.abs(F).sum(axis=0).max(initial=0.0)) * dt
-    if not (math.isfinite(norm) and np.isfinite(W).all()):
-        raise InputError("the filter's continuous error model holds a non-finite value "
-                         "(a sensor model parameter is infinite or NaN)")
-    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
-    h = math.ldexp(dt, -s)
-    a = 2.0 * math.ldexp(norm, -s)  # >= ||A|| + ||A'||, at most 1
-    # terms up to order K: the remainder of both series is below (a^K / (K + 1)!) ~ 1e-17
-    K, bound = 1, a / 2.0
-    while bound > 1e-17:
-        K += 1
-        bound *= a / (K + 1)
-    A = F * h
-    # X_k = [A^k | U_(k-1)] with U_0 = W h, U_j = A U_(j-1) + U_(j-1) A': Phi = sum A^k / k!
-    # and Q = sum U_j / (j + 1)!, so both halves of X_k take the coefficient 1 / k!, and one
-    # product A @ X_k advances both (A^k commutes with A)
-    X = np.empty((n, 2 * n))
-    X[:, :n] = A
-    X[:, n:] = W * h
-    acc = X.copy()
-    c = 1.0
-    for k in range(2, K + 1):
-        X = A @ X
-        U = X[:, n:]
-        X[:, n:] = U + U.T
-        c /= k
-        acc += X * c
-    E, Q = acc[:, :n], acc[:, n:]  # Phi - I: squaring it keeps a slow mode's decay exact
-    for _ in range(s):  # (Phi, Q) over 2h from h: Phi^2 = I + 2E + E^2, Q <- Phi Q Phi' + Q
-        EQ = E @ Q
-        Q = 2.0 * Q + EQ + EQ.T + EQ @ E.T
-        E = 2.0 * E + E @ E
-    E[np.diag_indices(n)] += 1.0
-    return E, 0.5 * (Q + Q.T)
 
 
 def _bdiag(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -810,7 +741,7 @@ class _Run:
         lat, hgt, v, q = mech.lat, mech.h, mech.v, mech.q
         if self.flt.linearisation == "midpoint":
             lat, hgt, v, q = midpoint_pva(self._start, (lat, hgt, v, q))
-        C = _dcm(q)
+        C = frames.quat_to_dcm(q)
         F = self._F
         _fill_error_dynamics(F, lat, hgt, v, f_n)
         W = self._W
@@ -821,11 +752,11 @@ class _Run:
             F[3:6, 9:] = -C @ sens.H[3:6]
             F[6:9, 9:] = C @ sens.H[0:3]
         if sens.F is not None or not ns:
-            Phi, Q = _discretise(F, W, dt)
+            Phi, Q = discretise(F, W, dt)
         else:
             Fnn = F[:9, :9]
             Fns = F[:9, 9:]
-            Pnn, Qnn = _discretise(Fnn, W[:9, :9], dt)
+            Pnn, Qnn = discretise(Fnn, W[:9, :9], dt)
             Pss, Qss = sens.steps(m)
             Phi = _bdiag(Pnn, Pss)
             Phi[:9, 9:] = 0.5 * dt * (Pnn @ Fns + Fns @ Pss)
@@ -848,7 +779,7 @@ class _Run:
         lon = prev[1] + lam * (mech.lon - prev[1])
         hgt = prev[2] + lam * (mech.h - prev[2])
         v = np.array(prev[3]) + lam * (np.array(mech.v) - np.array(prev[3]))
-        C = _dcm(mech.q)
+        C = frames.quat_to_dcm(mech.q)
         arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
         return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
 
@@ -922,7 +853,7 @@ class _Run:
             new = rot @ (v - dx[3:6] + np.cross(v, dx[6:9]))
             mech.v = (float(new[0]), float(new[1]), float(new[2]))
             self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
-                                                             _skew(new - v)]))
+                                                             frames.skew(new - v)]))
         else:
             mech.v = (vn - d[3], ve - d[4], vd - d[5])
             if model == "psi-exact":
@@ -995,7 +926,7 @@ class _Run:
                 mech.dv_n = [0.0, 0.0, 0.0]
                 elapsed = 0.0
                 if due:
-                    C = _dcm(mech.q)
+                    C = frames.quat_to_dcm(mech.q)
                     w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
                     while ie < ne and events[ie][0] <= tk + 1e-9:
                         self.t_meas = events[ie][0]

@@ -82,6 +82,15 @@ def quat_normalize(q: ArrayLike) -> np.ndarray:
 
 def quat_to_dcm(q: ArrayLike) -> np.ndarray:
     """Direction cosine matrix of a unit quaternion (Gonzalez eq. 14a-14i, scalar first)."""
+    if isinstance(q, tuple):  # one quaternion, in the filter's loop: without the stacking
+        q0, q1, q2, q3 = q
+        return np.array([
+            [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3),
+             2 * (q1 * q3 + q0 * q2)],
+            [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3,
+             2 * (q2 * q3 - q0 * q1)],
+            [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1),
+             q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
     q0, q1, q2, q3 = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
     return np.stack(
         [

@@ -7,7 +7,7 @@ import pytest
 from scipy.stats import chi2
 
 from stochmod.core.errors import InputError
-from stochmod.nav import LooselyCoupledFilter
+from stochmod.nav import LooselyCoupledFilter, frames
 import stochmod.nav.filter as nf
 
 # the emulated drive of the filter tests (its module-scoped fixtures, shared)
@@ -17,7 +17,7 @@ from .test_filter import ACCEL, GYRO, _emulate, _filter, clean_imu, truth  # noq
 def _to_modified(P: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Covariance of ``(dr, dv - v x psi, psi, ...)`` from that of ``(dr, dv, psi, ...)``."""
     M = np.eye(P.shape[0])
-    M[3:6, 6:9] = -nf._skew(v)
+    M[3:6, 6:9] = -frames.skew(v)
     return M @ P @ M.T
 
 

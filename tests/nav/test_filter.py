@@ -23,7 +23,8 @@ from stochmod.nav import (
     trajectory_from_profile,
 )
 from stochmod.nav.emulate import AXES
-from stochmod.nav.filter import _axis_models, _discretise, _Sensors
+from stochmod.core.statespace import discretise
+from stochmod.nav.filter import _axis_models, _Sensors
 from stochmod.nav.measurements import heading_jacobian
 from stochmod.core.statespace import ContinuousBlock, van_loan
 
@@ -180,7 +181,7 @@ def test_series_discretisation_matches_van_loan():
         F = rng.normal(size=(12, 12)) * scale
         G = rng.normal(size=(12, 12))
         W = G @ G.T
-        Phi, Q = _discretise(F, W, 0.1)
+        Phi, Q = discretise(F, W, 0.1)
         Phi2, Q2 = van_loan(ContinuousBlock(F, np.eye(12), W), 0.1)
         np.testing.assert_allclose(Phi, Phi2, rtol=1e-9, atol=1e-12 * np.abs(Phi2).max())
         np.testing.assert_allclose(Q, Q2, rtol=1e-8, atol=1e-11 * np.abs(Q2).max())
@@ -210,7 +211,7 @@ def test_discretisation_is_exact_on_poles_far_from_the_step():
     # a Gauss-Markov pole 1e20/s overflowed the unscaled power series (NaN covariance)
     dt = 1.0
     F, W, taus, sigmas = _stiff_error_model(dt)
-    Phi, Q = _discretise(F, W, dt)
+    Phi, Q = discretise(F, W, dt)
     assert np.isfinite(Phi).all() and np.isfinite(Q).all()
     phi = np.exp(-dt / taus)  # closed-form Gauss-Markov discretisation
     np.testing.assert_allclose(Phi[9:, 9:], np.diag(phi), rtol=1e-13, atol=1e-300)
@@ -220,7 +221,7 @@ def test_discretisation_is_exact_on_poles_far_from_the_step():
     # without the 1e20/s pole Van Loan (scipy's expm, its own scaling) is an independent check
     keep = np.r_[0:11]
     F2, W2 = F[np.ix_(keep, keep)], W[np.ix_(keep, keep)]
-    Phi2, Q2 = _discretise(F2, W2, dt)
+    Phi2, Q2 = discretise(F2, W2, dt)
     Phi3, Q3 = van_loan(ContinuousBlock(F2, np.eye(11), W2), dt)
     np.testing.assert_allclose(Phi2, Phi3, rtol=1e-9, atol=1e-12 * np.abs(Phi3).max())
     np.testing.assert_allclose(Q2, Q3, rtol=1e-8, atol=1e-11 * np.abs(Q3).max())
@@ -230,7 +231,7 @@ def test_discretisation_is_exact_on_poles_far_from_the_step():
     bad = F.copy()
     bad[11, 11] = -np.inf
     with pytest.raises(InputError, match="non-finite"):
-        _discretise(bad, W, dt)
+        discretise(bad, W, dt)
 
 
 def test_a_sub_sample_gauss_markov_process_is_the_white_noise_it_is_at_the_imu_rate(
@@ -350,13 +351,13 @@ def test_bad_configuration_is_refused(truth, clean_imu):
 def test_a_broken_covariance_is_reported_not_hidden(truth, clean_imu, monkeypatch):
     import stochmod.nav.filter as nf
 
-    real = nf._discretise
+    real = nf.discretise
 
     def broken(F, W, dt):  # a process noise with a negative eigenvalue
         Phi, Q = real(F, W, dt)
         return Phi, Q - np.eye(Q.shape[0]) * 10.0
 
-    monkeypatch.setattr(nf, "_discretise", broken)
+    monkeypatch.setattr(nf, "discretise", broken)
     imu, gnss, init, _ = _emulate(truth, clean_imu, 0)
     sel = truth.time <= 5.0
     with pytest.raises(nf.EstimationError, match="positive semi-definiteness"):
