@@ -1,9 +1,10 @@
-"""The optional compiler of stochmod's hot loops (numba, the ``fast`` extra).
+"""The compiler of stochmod's hot loops (numba).
 
 :func:`compiled` turns a plain Python function into numba's ``njit`` version (without the
-GIL, cached on disk) when numba is importable, and returns the function unchanged otherwise:
-a compiled kernel and its fallback are one source. :data:`AVAILABLE` says which runs.
-Setting ``STOCHMOD_DISABLE_JIT=1`` before importing stochmod forces the plain functions.
+GIL, cached on disk): a compiled kernel and its plain-Python self are one source, the latter
+as the kernel's ``py_func``. Setting ``STOCHMOD_DISABLE_JIT=1`` before importing stochmod
+makes :func:`compiled` return the plain functions (for debugging); :data:`AVAILABLE` says
+which run.
 """
 
 from __future__ import annotations
@@ -13,20 +14,19 @@ from typing import Any
 
 __all__ = ["AVAILABLE", "compiled"]
 
-try:  # pragma: no cover - depends on the environment
-    if os.environ.get("STOCHMOD_DISABLE_JIT", "") not in ("", "0"):
-        raise ImportError("disabled by STOCHMOD_DISABLE_JIT")
-    import numba
-except ImportError:  # pragma: no cover - depends on the environment
+if os.environ.get("STOCHMOD_DISABLE_JIT", "") not in ("", "0"):  # pragma: no cover
     numba = None
+else:
+    import numba
 
-#: Whether the compiled loops are available (numba importable and not disabled).
+#: Whether the loops run compiled (False when ``STOCHMOD_DISABLE_JIT`` is set).
 AVAILABLE = numba is not None
 
 
 def compiled(fn: Any = None, *, fastmath: frozenset[str] = frozenset({"reassoc"})) -> Any:
     """`fn` compiled by numba (``njit``, ``nogil``, `fastmath` flags), lazily on its first
-    call; `fn` itself without numba. Use as ``@compiled`` or ``@compiled(fastmath=...)``.
+    call; `fn` itself when ``STOCHMOD_DISABLE_JIT`` is set. Use as ``@compiled`` or
+    ``@compiled(fastmath=...)``.
 
     The machine code is cached on disk when numba finds a writable cache directory, and
     compiled again in each process otherwise. ``reassoc`` (the default) lets LLVM keep several
@@ -35,7 +35,7 @@ def compiled(fn: Any = None, *, fastmath: frozenset[str] = frozenset({"reassoc"}
     """
     if fn is None:
         return lambda f: compiled(f, fastmath=fastmath)
-    if numba is None:  # pragma: no cover - depends on the environment
+    if numba is None:  # pragma: no cover - STOCHMOD_DISABLE_JIT
         return fn
     flags = set(fastmath)
     try:
