@@ -62,6 +62,7 @@ def test_combine_garch_prints_volatility_parameters(sensors, tmp_path: Path, cap
                                rtol=1e-12)
     # the noisier sensor (index 1) gets the smallest weight
     assert int(np.argmin(report["columns"]["gyro_x"]["mean_weights"])) == 1
+    assert report["weights_of_the_mean"] == []
     with np.load(out) as z:
         np.testing.assert_allclose(z["gyro_x"], ref.signal, rtol=1e-12)
     assert out.with_suffix(".png").exists() or __import__("importlib").util.find_spec("matplotlib") is None
@@ -94,6 +95,9 @@ def test_bad_input(sensors, tmp_path: Path, capsys) -> None:
     files, _ = sensors
     short = tmp_path / "short.npz"
     np.savez(short, gyro_x=np.zeros(10), gyro_y=np.zeros(10), freq=FREQ)
+    fast = tmp_path / "fast.npz"
+    data = np.load(files[0])
+    np.savez(fast, gyro_x=data["gyro_x"], gyro_y=data["gyro_y"], freq=2 * FREQ)
     cases = [
         ([files[0]], "at least two"),
         ([*files, str(short)], "different lengths"),
@@ -101,7 +105,24 @@ def test_bad_input(sensors, tmp_path: Path, capsys) -> None:
         ([*files, "--method", "nope"], "unknown --method"),
         ([*files, "--method", "inverse-variance", "--calibration", "x.json"], "1 --calibration"),
         ([*files, "--method", "mean", "--workers", "2"], "--workers applies to --method garch"),
+        ([files[0], str(fast)], "different sampling rates"),
     ]
     for argv, match in cases:
         assert main(["combine", *argv, "--out", str(tmp_path / "o.npz"), "--no-plots"]) == 2
         assert match in capsys.readouterr().err
+    for out in ("o.csv", "o"):  # the suffix given is kept or refused, never replaced
+        assert main(["combine", *files, "--out", str(tmp_path / out), "--no-plots"]) == 2
+        assert "ends in .npz" in capsys.readouterr().err
+        assert not list(tmp_path.glob("o.*"))
+
+
+def test_a_method_that_cannot_differ_from_the_mean_says_so(sensors, tmp_path: Path,
+                                                           capsys) -> None:
+    files, x = sensors
+    out = tmp_path / "two.npz"
+    assert main(["combine", *files[:2], "--method", "garch", "--arma", "0", "0", "--garch", "1",
+                 "1", "--column", "gyro_x", "--out", str(out), "--no-plots"]) == 0
+    printed = capsys.readouterr().out
+    assert "are those of the mean (1/2, to 1e-06)" in printed and "equal and opposite" in printed
+    with np.load(out) as two:
+        np.testing.assert_allclose(two["gyro_x_weights"], 0.5, atol=1e-6)

@@ -22,7 +22,13 @@ from stochmod.io.recording import Recording, read_recording
 from stochmod.plugin.registry import combiner_names
 from stochmod.core.tables import format_table
 
-__all__ = ["register", "run", "load_sensors", "combiner_options"]
+__all__ = ["register", "run", "load_sensors", "combiner_options", "RATE_TOLERANCE",
+           "MEAN_WEIGHT_TOLERANCE"]
+
+#: Relative difference of the files' sampling rates above which they are not one time base.
+RATE_TOLERANCE = 1e-3
+#: Largest difference of a weight from ``1/n`` of a combination that is the mean.
+MEAN_WEIGHT_TOLERANCE = 1e-6
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -80,6 +86,11 @@ def load_sensors(files: list[str], columns: list[str] | None) -> tuple[list[Reco
     lengths = {rec.data.shape[0] for rec in recs}
     if len(lengths) != 1:
         raise InputError(f"the recordings have different lengths {sorted(lengths)}: align them first")
+    rates = [rec.freq for rec in recs if rec.freq is not None]
+    if rates and max(rates) - min(rates) > RATE_TOLERANCE * max(rates):
+        listed = ", ".join(f"{rec.path}: {rec.freq:g} Hz" for rec in recs if rec.freq is not None)
+        raise InputError(f"the recordings have different sampling rates ({listed}): resample "
+                         "them to one rate and align them first")
     return [rec.select(list(names)) for rec in recs], names
 
 
@@ -118,6 +129,13 @@ def _sensor_rows(column: str, res: CombinationResult, files: list[str]) -> list[
             params = "-"
         rows.append([column, Path(path).name, float(np.mean(res.weights[i])), sv, params])
     return rows
+
+
+def _is_mean(res: CombinationResult) -> bool:
+    """Whether a combination's weights are the mean's, ``1/n`` at every sample, to
+    :data:`MEAN_WEIGHT_TOLERANCE` (two sensors' volatility fits agree to their optimizer's
+    tolerance, not to rounding)."""
+    return bool(np.all(np.abs(res.weights - 1.0 / res.n_sensors) <= MEAN_WEIGHT_TOLERANCE))
 
 
 def _figure(results: dict[str, CombinationResult], freq: float, path: Path) -> Path | None:
@@ -162,6 +180,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"unknown --method {args.method!r}; registered: {', '.join(combiner_names())}")
     if not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
+    if Path(args.out).suffix != ".npz":
+        raise InputError(f"--out {args.out}: the synthetic signal is written as .npz; "
+                         "give a path that ends in .npz")
     recs, names = load_sensors(args.files, args.column)
     freq = args.freq if args.freq is not None else recs[0].freq
     if freq is None:
@@ -178,8 +199,6 @@ def run(args: argparse.Namespace) -> int:
             col_opts["columns"] = [column]
         results[column] = combine(x, args.method, **col_opts)
     out = Path(args.out)
-    if out.suffix != ".npz":
-        out = out.with_suffix(".npz")
     out.parent.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, np.ndarray] = {"freq": np.array(freq)}
     for column, res in results.items():
@@ -188,12 +207,14 @@ def run(args: argparse.Namespace) -> int:
         arrays[f"{column}_weights"] = res.weights.T
     np.savez(out, **arrays)
     figure = None if args.no_plots else _figure(results, freq, out)
+    same = [c for c, r in results.items() if args.method != "mean" and _is_mean(r)]
     if args.json:
         print_json({"method": args.method, "files": args.files, "freq": freq, "out": str(out),
                     "columns": {c: {"noise_reduction": r.noise_reduction,
                                     "mean_weights": r.weights.mean(axis=1),
                                     "mean_variance": float(np.mean(r.variance)),
-                                    "info": r.info} for c, r in results.items()}})
+                                    "info": r.info} for c, r in results.items()},
+                    "weights_of_the_mean": same})
         return 0
     rows = [row for column, res in results.items() for row in _sensor_rows(column, res, args.files)]
     print(format_table(["column", "sensor", "mean weight", "mean error variance", "volatility model"],
@@ -205,5 +226,10 @@ def run(args: argparse.Namespace) -> int:
         [[c, float(np.sqrt(np.mean(r.variance))),
           "-" if r.noise_reduction is None else f"{100 * r.noise_reduction:.1f}%"] for c, r in results.items()]))
     print(f"\nassumes: {next(iter(results.values())).assumes}")
+    if same:
+        why = (" with two sensors the residuals from their mean are equal and opposite, so a "
+               "method that weights by them cannot differ from the mean") if len(recs) == 2 else ""
+        print(f"\nnote: the weights of {', '.join(same)} are those of the mean (1/{len(recs)}, "
+              f"to {MEAN_WEIGHT_TOLERANCE:g}):{why}")
     print(f"wrote {out}" + (f", {figure}" if figure else ""))
     return 0

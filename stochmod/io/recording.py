@@ -31,7 +31,7 @@ from stochmod.core.tables import format_table
 from stochmod.io.timing import DEFAULT_GAP_FACTOR, TimingReport, analyse_timing
 from stochmod.core.units import parse_unit
 
-__all__ = ["Recording", "Reader", "read_recording", "import_optional", "format_names"]
+__all__ = ["Recording", "Reader", "read_recording", "read_with", "import_optional", "format_names"]
 
 
 def _tuple_or_none(value: Any) -> tuple[str | None, ...] | None:
@@ -303,6 +303,22 @@ def _call(r: Any, path: Path, options: dict[str, Any]) -> Recording:
     if not isinstance(rec, Recording):
         raise InputError(f"the {r.name} reader returned {type(rec).__name__}, not a Recording")
     return rec
+
+
+def read_with(path: str | Path, reader: str, **options: Any) -> Recording:
+    """The recording as the reader named `reader` returns it, without the checks of
+    :func:`read_recording` (samples, time stamps): for a caller that checks them its own way.
+
+    Raises
+    ------
+    InputError
+        Unknown reader, an option it does not take, or a file it cannot read (the reader's
+        error, in one line).
+    """
+    found = readers()
+    if reader not in found:
+        raise InputError(f"unknown reader {reader!r}; registered: {', '.join(sorted(found))}")
+    return _call(found[reader], Path(path), options)
 
 
 def read_recording(

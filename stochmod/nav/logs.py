@@ -32,7 +32,7 @@ from stochmod.core.model import Model
 from stochmod.plugin.spec import model_from_spec
 from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
-from stochmod.plugin.registry import readers
+from stochmod.io.recording import read_with
 
 __all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "calibration_record",
            "IMU_COLUMNS", "GNSS_COLUMNS"]
@@ -57,7 +57,7 @@ def _read_table(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"no such file: {path}")
-    rec = readers()["csv"].read(path)
+    rec = read_with(path, "csv")  # its samples and time are checked below, per column
     if all(name.isdigit() for name in rec.columns):
         raise InputError(f"{path} has no header line; the first line must name the columns")
     keys = [name.strip().lower() for name in rec.columns]
