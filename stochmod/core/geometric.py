@@ -81,8 +81,8 @@ _FEW_ROWS = 16
 
 
 def _power_series(coefs: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``sum_k coefs[k] x^k`` for |x| < 1 (a matrix of powers: one vectorised product
-    instead of a Python loop over the coefficients, which dominated an optimiser's calls)."""
+    """``sum_k coefs[k] x^k`` for |x| < 1 (a matrix of powers: one vectorised product,
+    where a Python loop over the coefficients would dominate an optimiser's calls)."""
     return np.power.outer(x, _EXPONENTS[: coefs.size]) @ coefs
 
 
@@ -397,7 +397,7 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
         if not far.all():
             w[~far], dw[~far] = haar_wv_positive_rows(u[~far], m)
         return w, dw
-    if _JIT:  # the same recursion compiled: a few us instead of ~30 numpy calls
+    if _JIT:  # the same recursion compiled: one call where numpy makes ~30
         w = np.empty((u.size, m.size))
         dw = np.empty((u.size, m.size))
         _positive_rows_jit(u, m, w, dw)

@@ -290,7 +290,7 @@ class Process(abc.ABC):
         ``__attrs_post_init__``), take a validated fast path: the same values and the same
         domain verdicts, with plain-float checks instead of a rebuild through ``attrs.evolve``
         (an optimizer builds thousands of models). Values outside their domain (overflow at
-        extreme `theta`) go through the general path, which raises as before.
+        extreme `theta`) go through the general path, which raises.
         """
         theta = np.asarray(theta, dtype=np.float64).reshape(-1)
         layout = _scalar_layout(type(self))
