@@ -49,7 +49,7 @@ _gesdd = lapack.dgesdd  # the thin SVD, without numpy's per-call checks (tiny ma
 _add = np.add.reduce  # ndarray.sum without its Python wrapper (the same reduction)
 #: The first trust region, in the variables scaled by the Jacobian's column norms (scipy's trf
 #: starts from the scaled start's norm, often 10-100 here, whose first steps overshoot by
-#: orders of magnitude: over bench/fit_digits.py's 99 cases 1.0 takes 18 % fewer evaluations).
+#: orders of magnitude; a unit radius needs fewer evaluations over bench/fit_digits.py's cases).
 _FIRST_RADIUS = 1.0
 _RANK = 1e-15  # singular values below this fraction of the largest are null directions
 
