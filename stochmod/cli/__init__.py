@@ -80,8 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def script() -> NoReturn:
     """The ``stochmod`` console script: :func:`main` on the command line, then the process
     ends with its exit code once stdout and stderr are flushed, without the interpreter's
-    teardown (freeing every object of numba, scipy, dask ...: 0.3-0.9 s after each command,
-    measured; mypy's ``hard_exit`` does the same). Every file a command writes is closed
+    teardown (freeing every object of numba, scipy, dask ..., a sizeable part of a short
+    command's time; mypy's ``hard_exit`` does the same). Every file a command writes is closed
     before it returns, its process pools and clusters are shut down, and an exception takes
     the normal way out."""
     code = main()

@@ -26,7 +26,7 @@ __all__ = ["plot_fit", "save_fit_figure", "simulated_wv"]
 FIGSIZE = (6.4, 4.8)  # inches
 #: Fixed margins of a new figure, as fractions of :data:`FIGSIZE`, wide enough for the
 #: log-axis tick labels, a unit in the y label and a one-line title. (``tight_layout``
-#: measured every text first: a second layout pass, about as long as drawing the figure.)
+#: measures every text first: a second layout pass, about as long as drawing the figure.)
 MARGINS = {"left": 0.12, "right": 0.97, "bottom": 0.1, "top": 0.93}
 
 

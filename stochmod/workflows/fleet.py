@@ -84,9 +84,9 @@ STAGES = {"read": "read", "_prepare": "wv", "_covariance": "eq17", "_fit_task": 
 #: module docstring), and the periodic checks of every server (the scheduler, the nannies and
 #: the workers) at human intervals instead of dask's: the event loop's health tick every
 #: second (20 ms), the system monitor's psutil samples (dashboard only; there is none) every
-#: 2 s (500 ms), the memory limits checked every 0.5 s (100 ms). At dask's intervals they took
-#: 0.05-0.07 s of CPU per second of a run in the command's process and as much again in the
-#: workers, on the cores the tasks run on; at these, a third of it (docs/fleet.md, session 9).
+#: 2 s (500 ms), the memory limits checked every 0.5 s (100 ms). At dask's intervals these
+#: checks take CPU in the command's process and as much again in the workers, on the cores
+#: the tasks run on; at these intervals, a third of it (docs/fleet.md).
 _MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 _LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False,
                          f"distributed.nanny.pre-spawn-environ.{_MALLOC_TRIM}": None,
@@ -393,7 +393,7 @@ def _calibrate_on(client: Any, tasks: Sequence[argparse.Namespace], steps: UnitS
     column (which any worker may take, so that the end of the run, or a fleet of fewer files
     than workers, keeps every worker busy), then their outputs. A unit in one task costs
     less: its columns' work shares one heap (column tasks fault 4-5 times the memory pages
-    in a worker; docs/fleet.md, session 8). At most :data:`_UNITS_PER_THREAD` units per worker
+    in a worker; docs/fleet.md). At most :data:`_UNITS_PER_THREAD` units per worker
     thread are in flight."""
     from distributed import as_completed
 
