@@ -357,7 +357,7 @@ class AR(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """The recursion (scipy.signal.lfilter) started from the stationary law of the p past values."""
-        import scipy.signal  # here: importing it costs 0.6-1 s, only simulations use it
+        import scipy.signal  # here: it is slow to import, and only simulations use it
 
         self.require_values()
         n = check_positive_int(n, name="n")

@@ -308,7 +308,7 @@ class GM(Process):
     # ------------------------------------------------------------------ simulation
     def simulate(self, n: int, freq: float, rng: np.random.Generator | int) -> np.ndarray:
         """Stationary AR(1) recursion (scipy.signal.lfilter), started from N(0, sigma2)."""
-        import scipy.signal  # here: importing it costs 0.6-1 s, only simulations use it
+        import scipy.signal  # here: it is slow to import, and only simulations use it
 
         self.require_values()
         n = check_positive_int(n, name="n")

@@ -3,8 +3,8 @@
 Quinchia et al. (2013, eqs. 2-4 and 27-30) and Gonzalez et al. (2015): the exact discrete form
 of ``dx/dt = -beta x + w(t)`` at a sampling frequency, the first-order forms the papers use,
 the AR(1) read back as a GM, and the GM of a bias instability. :func:`ar1_to_gm` is the one
-AR(1) conversion, shared with :meth:`stochmod_gm.GM.from_ar1`. Also reachable as
-``stochmod.core.units.gm_discretize`` etc. while this plugin is registered.
+AR(1) conversion, shared with :meth:`stochmod_gm.GM.from_ar1`. The units and per-sample
+values of the other families are in :mod:`stochmod.core.units`.
 """
 
 from __future__ import annotations
