@@ -1,6 +1,6 @@
-"""The overlapping Allan and Hadamard sums' two paths, the compiled loop
-(:mod:`stochmod.empirical.allan_jit`) and numpy in blocks (:mod:`stochmod.empirical.allan`), each
-against an exact integer computation of ``sum_i (Delta^d_m c_i)^2``."""
+"""The overlapping Allan and Hadamard sums' compiled loop (:mod:`stochmod.empirical.allan_jit`)
+against an exact integer computation of ``sum_i (Delta^d_m c_i)^2``, and against its own
+plain-Python function."""
 
 from __future__ import annotations
 
@@ -12,10 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stochmod.core import jit
-from stochmod.empirical import allan, allan_jit, haar_jit
+from stochmod.empirical import allan_jit
 
-needs_numba = pytest.mark.skipif(not jit.AVAILABLE,
-                                 reason="numba (the 'fast' extra) is not installed")
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE, reason="STOCHMOD_DISABLE_JIT is set")
 
 #: Phase values up to 2^16 in magnitude: every difference (< 2^19) and square (< 2^38) is
 #: exact in float64, and a sum of up to 2^17 of them fits int64.
@@ -30,27 +29,30 @@ def _exact(c: np.ndarray, m: int, d: int) -> int:
     return int(np.sum(diff * diff))
 
 
-def _paths() -> list:
-    paths = [pytest.param(allan._blocked_sum_numpy, id="numpy")]
-    paths.append(pytest.param(allan_jit.difference_sumsq, id="compiled", marks=needs_numba))
-    return paths
-
-
-@pytest.mark.parametrize("path", _paths())
 @settings(max_examples=60, deadline=None)
 @given(d=st.sampled_from([2, 3]), m=st.integers(1, 300), extra=st.integers(0, 400),
        seed=st.integers(0, 2**32 - 1))
-def test_sum_equals_the_exact_integer_sum(path, d, m, extra, seed):
+def test_sum_equals_the_exact_integer_sum(d, m, extra, seed):
     """Every lag, both orders, from one term (``P = d m + 1``, the shortest phase) up."""
     c = np.random.default_rng(seed).integers(-_BOUND, _BOUND, d * m + 1 + extra)
     exact = _exact(c, m, d)
-    got = path(c.astype(np.float64), m, d)
+    got = allan_jit.difference_sumsq(c.astype(np.float64), m, d)
     assert got == pytest.approx(exact, rel=1e-13, abs=0)
 
 
-@pytest.mark.parametrize("path", _paths())
 @pytest.mark.parametrize("d, m", [(2, 1), (2, 70_001), (3, 3), (3, 40_000)])
-def test_sum_across_blocks_equals_the_exact_integer_sum(path, d, m):
-    """Phases longer than the numpy path's block (2^17 samples), lags below and above it."""
+def test_long_sum_equals_the_exact_integer_sum(d, m):
+    """Phases of more than 2^17 samples, long and short lags."""
     c = np.random.default_rng(m).integers(-_BOUND, _BOUND, (1 << 17) + d * m + 5)
-    assert path(c.astype(np.float64), m, d) == pytest.approx(_exact(c, m, d), rel=1e-12, abs=0)
+    got = allan_jit.difference_sumsq(c.astype(np.float64), m, d)
+    assert got == pytest.approx(_exact(c, m, d), rel=1e-12, abs=0)
+
+
+@needs_numba
+@settings(max_examples=40, deadline=None)
+@given(d=st.sampled_from([2, 3]), m=st.integers(1, 50), extra=st.integers(0, 2000),
+       seed=st.integers(0, 2**32 - 1))
+def test_compiled_sum_equals_its_plain_function(d, m, extra, seed):
+    c = np.random.default_rng(seed).standard_normal(d * m + 1 + extra).cumsum()
+    assert allan_jit.difference_sumsq(c, m, d) == pytest.approx(
+        allan_jit.difference_sumsq.py_func(c, m, d), rel=1e-12, abs=0)

@@ -27,8 +27,7 @@ overlapping and unmodified, the moving sums are built level by level in place,
 ``S_2m[i] = S_m[i] + S_m[i+m]``, in cache-sized chunks (no cumulative sum, no temporaries):
 O(N) per tau and 3-4x faster than allantools.oadev (``bench/bench_allan.py``). Other grids
 and kinds take ``S_m`` from one cumulative sum (O(N) per tau: for the overlapping Allan and
-Hadamard variances one compiled loop per tau, :mod:`stochmod.empirical.allan_jit`, or numpy in
-blocks without numba).
+Hadamard variances one compiled loop per tau, :mod:`stochmod.empirical.allan_jit`).
 
 Confidence intervals come from equivalent degrees of freedom (EDF) and the chi-square law
 (NIST SP 1065 eq. 45): ``[edf var / chi2_{1-a/2}(edf), edf var / chi2_{a/2}(edf)]``. The
@@ -53,7 +52,7 @@ from stochmod.core.fields import array_field
 from stochmod.core.checks import as_signal, check_alpha, check_freq, check_positive_int
 from stochmod.core.errors import InputError
 from stochmod.core.tables import format_number, format_table
-from stochmod.empirical import allan_jit, haar_jit
+from stochmod.empirical import allan_jit
 
 __all__ = [
     "AllanVariance",
@@ -370,7 +369,7 @@ def _phase_sums(y: np.ndarray, m_all: np.ndarray, d: int, overlapping: bool, mod
             blocks = np.diff(c[::m])  # non-overlapping cluster sums S_m[k m]
             t = np.diff(blocks, n=d - 1)
         elif not modified:
-            out[m] = _blocked_sum(c, m, d)
+            out[m] = allan_jit.difference_sumsq(c, m, d)
             continue
         else:
             s = c[m:] - c[:-m]  # S_m
@@ -384,36 +383,6 @@ def _phase_sums(y: np.ndarray, m_all: np.ndarray, d: int, overlapping: bool, mod
             t = ct[m:] - ct[:-m]  # sums of m consecutive differences
         out[m] = _sumsq(t)
     return out
-
-
-def _blocked_sum(c: np.ndarray, m: int, d: int) -> float:
-    """Sum of squared d-th lag-m differences of `c`: one compiled loop when numba is there
-    (:func:`stochmod.empirical.allan_jit.difference_sumsq`), else numpy, block by block."""
-    if haar_jit.AVAILABLE:
-        return float(allan_jit.difference_sumsq(c, m, d))
-    return _blocked_sum_numpy(c, m, d)
-
-
-def _blocked_sum_numpy(c: np.ndarray, m: int, d: int) -> float:
-    """:func:`_blocked_sum` in numpy, block by block (the block stays in cache)."""
-    n_t = c.size - d * m
-    u = np.empty(_CHUNK)
-    v = np.empty(_CHUNK)
-    total = 0.0
-    for a in range(0, n_t, _CHUNK):
-        b = min(a + _CHUNK, n_t)
-        tu, tv = u[: b - a], v[: b - a]
-        # second difference at i: (c[i+2m] - c[i+m]) - (c[i+m] - c[i])
-        np.subtract(c[a + 2 * m : b + 2 * m], c[a + m : b + m], out=tu)
-        np.subtract(c[a + m : b + m], c[a:b], out=tv)
-        np.subtract(tu, tv, out=tu)
-        if d == 3:  # third difference: the second difference at i + m minus the one at i
-            np.subtract(c[a + 3 * m : b + 3 * m], c[a + 2 * m : b + 2 * m], out=tv)
-            np.subtract(tv, c[a + 2 * m : b + 2 * m], out=tv)
-            np.add(tv, c[a + m : b + m], out=tv)
-            np.subtract(tv, tu, out=tu)
-        total += _sumsq(tu)
-    return total
 
 
 def _is_power_of_two(m: np.ndarray) -> bool:

@@ -1,22 +1,14 @@
-"""Optional compiled pass (numba) for the overlapping Allan and Hadamard variances at any tau:
-the sum of the squared lag-m phase differences from one cumulative sum.
+"""Compiled pass of the overlapping Allan and Hadamard variances at any tau: the sum of the
+squared lag-m phase differences from one cumulative sum.
 
 For the phase ``c`` (``N + 1`` points) and the averaging factor ``m``,
 :func:`difference_sumsq` returns ``sum_i (Delta^d_m c_i)^2`` over ``i = 0 .. N - d m``, the
 numerator of the overlapping Allan (``d = 2``) or Hadamard (``d = 3``) variance (NIST SP 1065
-eqs. 7 and 14; :mod:`stochmod.empirical.allan`). Each difference is the same floating-point
-operation as in the numpy path of :mod:`stochmod.empirical.allan`; only the order in which the
-squares are summed differs (``reassoc``: several partial sums in SIMD lanes).
-
-Why a compiled loop (measured at N = 2^20, the 55 taus of a datasheet reading's decade grid:
-23 ms against 83 ms; 11 ms against 67-83 ms for m = 1..52): numpy needs four to seven calls per block of the sum (the
-differences, into scratch arrays, and the sum of squares), each of which reads and writes its
-block; one loop reads the three or four shifted views of the phase once and keeps the sum in
-registers. The loop indexes contiguous views of ``c``, not ``c[i + m]``, so that LLVM
-vectorises it (indexing with the lag inside the loop ran 5x slower).
-
-Without numba (or with ``STOCHMOD_DISABLE_JIT=1``) :data:`stochmod.empirical.haar_jit.AVAILABLE`
-is False and nothing here is used.
+eqs. 7 and 14; :mod:`stochmod.empirical.allan`). One loop reads the three or four shifted
+views of the phase once and keeps the sum in registers; it indexes contiguous views of ``c``,
+not ``c[i + m]``, so that LLVM vectorises it. The squares are summed in several partial sums
+(``reassoc``). Compiled by :func:`stochmod.core.jit.compiled`; with
+``STOCHMOD_DISABLE_JIT=1`` the same function runs as plain Python.
 """
 
 from __future__ import annotations
@@ -29,7 +21,7 @@ __all__ = ["difference_sumsq"]
 
 
 @compiled
-def difference_sumsq(c: np.ndarray, m: int, d: int) -> float:  # pragma: no cover - compiled
+def difference_sumsq(c: np.ndarray, m: int, d: int) -> float:  # pragma: no cover
     """Sum of the squared d-th lag-m differences of the phase `c` (float64, 1-D).
 
     Parameters
