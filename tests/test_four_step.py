@@ -13,12 +13,8 @@ from hypothesis import strategies as st
 from scipy import fft
 from test_wv_covariance import direct_eq17  # eq. 17 by its definition, O(N^2)
 
-from stochmod.core import jit
-from stochmod.empirical import four_step, haar_jit
+from stochmod.empirical import four_step
 from stochmod.empirical.wv_covariance import wv_covariance
-
-needs_numba = pytest.mark.skipif(not jit.AVAILABLE,
-                                 reason="numba (the 'fast' extra) is not installed")
 
 
 def _is_7_smooth(v: int) -> bool:
@@ -67,7 +63,6 @@ def _power_in_layout(x: np.ndarray, n1: int, n2: int) -> np.ndarray:
     return np.append(exact[k], exact[-1])
 
 
-@needs_numba
 @settings(max_examples=60, deadline=None)
 @given(n1=st.integers(1, 24), n2=st.integers(1, 3 * four_step.BLOCK + 5),
        seed=st.integers(0, 2**32 - 1), exponent=st.integers(-30, 30))
@@ -83,7 +78,6 @@ def test_layout_power_equals_the_real_transform(n1, n2, seed, exponent):
     assert np.max(np.abs(out - exact)) <= 1e-5 * np.max(exact)
 
 
-@needs_numba
 @pytest.mark.parametrize("shape", [(1, 1), (2, 1), (1, 2), (2, 2), (3, 3), (5, 7), (4, 65),
                                    (9, 130), (16, 64)])
 def test_layout_power_of_a_single_tone(shape):
@@ -115,14 +109,11 @@ def short_four_step(monkeypatch):
     four_step.plan.cache_clear()
 
 
-@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
 @pytest.mark.parametrize("n", [777, 913, 1000])
-def test_covariance_through_the_layout_equals_the_direct_sum(short_four_step, monkeypatch,
-                                                              compiled, n):
+def test_covariance_through_the_layout_equals_the_direct_sum(short_four_step, n):
     """Odd and even lengths and n1, H = n1 n2 padded or not, n2 over several blocks of 8
-    columns, the last one partial or full (see the next test), both paths, serial and
-    threaded: the direct eq. 17 sum, and the same digits for every thread count."""
-    monkeypatch.setattr(haar_jit, "AVAILABLE", compiled)
+    columns, the last one partial or full (see the next test), serial and threaded: the
+    direct eq. 17 sum, and the same digits for every thread count."""
     n1, n2 = four_step.transform_shape(n)
     assert n1 > 1 and n1 * n2 >= n
     x = np.random.default_rng(n).standard_t(4, size=n)

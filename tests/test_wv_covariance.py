@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 
-from stochmod.core import jit
 from stochmod.core.errors import InputError
-from stochmod.empirical import haar_jit
 from stochmod.core.filters import filter_width
 from stochmod.empirical.modwt import modwt_coefficients
 from stochmod.empirical.wavelet_variance import wvar
@@ -190,11 +188,8 @@ def test_threads_default_from_the_environment(monkeypatch):
         wv_covariance(np.arange(64.0), 2, workers=0)
 
 
-@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.skipif(
-    not jit.AVAILABLE, reason="numba (the 'fast' extra) is not installed"))])
-def test_both_power_spectrum_paths_give_the_direct_sum(monkeypatch, compiled):
-    """scipy's real transform and the compiled split of a complex one
-    (:mod:`stochmod.empirical.spectrum_jit`), each against the direct double-precision sum."""
-    monkeypatch.setattr(haar_jit, "AVAILABLE", compiled)
+def test_power_spectrum_path_gives_the_direct_sum():
+    """The compiled split of the complex transform of sample pairs
+    (:mod:`stochmod.empirical.spectrum_jit`) against the direct double-precision sum."""
     x = np.random.default_rng(5).normal(size=913)
     assert wv_covariance(x, 6) == pytest.approx(direct_eq17(x, 6), rel=2e-5)

@@ -14,17 +14,14 @@ not done: the eq. 17 Gram matrix sums over all frequencies, so their order does 
 long as every level uses the same, and the real-from-complex split reads each frequency's
 partner through the index map of this layout. Every short transform works on data in the
 cache, where one transform of ``H`` points makes several passes over an array larger than the
-L2 cache: at ``H = 2^20`` (one thread, complex64) the four-step took 10-13 ms against 16-19 ms
-for scipy's single transform (the split excluded).
+L2 cache.
 
 :func:`transform_shape` chooses ``H >= n`` and its split from ``n`` alone (no timing at run
 time): for short series (under :data:`FOUR_STEP_MIN` points) one transform of scipy's next
 fast length; otherwise the smallest ``H = n1 n2 >= n`` with ``n1 <= n2 <= 2 n1`` and both
-factors 7-smooth (pocketfft's radix-2, 3, 4, 5 and 7 kernels). Measured on this machine, the
-four-step's time per point does not depend on the factors beyond noise (about 11.5 ns per
-point at ``H`` from 2^20 to 2.1e6 over 50 such splits), whereas a single transform's does
-(2,000,000 = 2^7 5^6 took 56 ms, 2,016,000 = 2^8 3^2 5^3 7 took 42 ms): so the rule only needs
-the least padding.
+factors 7-smooth (pocketfft's radix-2, 3, 4, 5 and 7 kernels). The four-step's time per point
+does not depend on the factors, whereas a single transform's does: so the rule only needs the
+least padding.
 """
 
 from __future__ import annotations
@@ -44,7 +41,7 @@ __all__ = ["BLOCK", "FOUR_STEP_MIN", "Plan", "plan", "power_spectrum", "transfor
 #: Columns per block of the first pass: ``n1 x BLOCK`` complex64 (512 kB at n1 = 1024) stay in
 #: the L2 cache between the block's transforms and its twiddle multiply.
 BLOCK = 64
-#: Complex points from which the four-step pays (measured: equal at 2^14, 30 % faster at 2^16).
+#: Complex points from which the four-step pays against one transform.
 FOUR_STEP_MIN = 1 << 15
 _PRIMES = (2, 3, 5, 7)
 

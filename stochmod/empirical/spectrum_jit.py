@@ -1,4 +1,4 @@
-"""Optional compiled passes (numba) for the eq. 17 covariance: the power spectrum of a real series
+"""Compiled passes of the eq. 17 covariance: the power spectrum of a real series
 from the complex transform of its sample pairs, in natural or four-step order.
 
 A real series ``x`` of even length ``N``, read as the ``H = N/2`` complex numbers
@@ -19,12 +19,9 @@ complex one of half the length; Press et al., Numerical Recipes, 2nd ed., sec. 1
 ``(0, -k2 mod n2)`` in row 0, and writes the powers in that same order, which the Gram matrix
 of eq. 17 does not see (it sums over all frequencies); with ``n1 = 1`` it is the natural order.
 :func:`twiddle_block` is the four-step's multiply between its two passes of short transforms;
-:func:`power_gram` the Gram matrix of the levels' powers. One compiled pass reads each pair
-once and writes both powers; numpy would need about eight passes (so without numba,
-:mod:`stochmod.empirical.wv_covariance` keeps scipy's real transform).
-
-Without numba (or with ``STOCHMOD_DISABLE_JIT=1``) :data:`stochmod.empirical.haar_jit.AVAILABLE`
-is False and nothing here is used.
+:func:`power_gram` the Gram matrix of the levels' powers. One pass reads each pair once and
+writes both powers. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
+``STOCHMOD_DISABLE_JIT=1`` the same functions run as plain Python.
 """
 
 from __future__ import annotations

@@ -20,11 +20,10 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import fft
 
 from stochmod.core.checks import as_signal, check_positive_int
 from stochmod.core.errors import InputError
-from stochmod.empirical import four_step, haar_jit, spectrum_jit
+from stochmod.empirical import four_step, spectrum_jit
 from stochmod.core.filters import check_level, default_levels, modwt_filters
 from stochmod.empirical.modwt import pyramid
 
@@ -32,8 +31,6 @@ __all__ = ["THREADS_VARIABLE", "default_workers", "wv_covariance"]
 
 #: Environment variable that sets the default number of threads of :func:`wv_covariance`.
 THREADS_VARIABLE = "STOCHMOD_FFT_THREADS"
-_GEMM_SIZE = 1 << 18  # J * J * block at most: OpenBLAS runs such products on one thread
-# (threaded BLAS calls stall for seconds when the other cores are busy; see modwt._DOT)
 _GRAM_BLOCK = 128  # frequencies per block of the compiled Gram (J x 128 float64 in L1)
 
 
@@ -56,22 +53,14 @@ def default_workers() -> int:
 def _level_power(shape: tuple[int, int]) -> Callable[[np.ndarray, np.ndarray], None]:
     """The function ``power(buf, out)`` that sets `out` to the float32 power spectrum
     ``|rfft(buf)|^2`` at the ``n1 n2 + 1`` frequencies of one zero-padded series of
-    ``2 n1 n2`` samples, ``shape = (n1, n2)``; `buf` may be overwritten. With the compiled
-    loops, the four-step transform of the sample pairs, in place, and the split of its
-    layout (:func:`stochmod.empirical.four_step.power_spectrum`; the frequencies in that
-    layout's order, which the Gram matrix does not see); without, scipy's real transform
-    (natural order)."""
-    if haar_jit.AVAILABLE:
-        tables = four_step.plan(*shape)
+    ``2 n1 n2`` samples, ``shape = (n1, n2)``; `buf` is overwritten. The four-step transform
+    of the sample pairs, in place, and the split of its layout
+    (:func:`stochmod.empirical.four_step.power_spectrum`; the frequencies in that layout's
+    order, which the Gram matrix does not see)."""
+    tables = four_step.plan(*shape)
 
-        def power(buf: np.ndarray, out: np.ndarray) -> None:
-            four_step.power_spectrum(buf, tables, out)
-    else:
-
-        def power(buf: np.ndarray, out: np.ndarray) -> None:
-            spec = fft.rfft(buf).view(np.float32)  # (re, im) pairs
-            np.square(spec, out=spec)
-            np.add(spec[0::2], spec[1::2], out=out)
+    def power(buf: np.ndarray, out: np.ndarray) -> None:
+        four_step.power_spectrum(buf, tables, out)
 
     return power
 
@@ -129,22 +118,9 @@ def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
     """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
 
     The float32 rows are promoted to float64 block by block, so the products and their sums
-    are in double precision: with the compiled loops by
-    :func:`~stochmod.empirical.spectrum_jit.power_gram` (half the time of the BLAS products of
-    short blocks below at J = 19, 2^20 frequencies: 26-29 against 54-56 ms), without, by
-    blocks small enough for one BLAS thread. (The products are bound by memory bandwidth: two
-    threads on halves of the spectrum were slower, 147 against 124 ms for 19 rows of 2M
-    frequencies.)
+    are in double precision (:func:`~stochmod.empirical.spectrum_jit.power_gram`).
     """
-    J, K = powers.shape
-    if haar_jit.AVAILABLE:
-        gram = spectrum_jit.power_gram(powers, _GRAM_BLOCK)
-    else:
-        width = max(64, _GEMM_SIZE // (J * J))
-        gram = np.zeros((J, J))
-        for s in range(0, K, width):
-            block = powers[:, s : s + width].astype(np.float64)
-            gram += block @ block.T
+    gram = spectrum_jit.power_gram(powers, _GRAM_BLOCK)
     gram *= 2.0  # the conjugate half
     ends = powers[:, [0, -1]].astype(np.float64) if nfft % 2 == 0 else powers[:, :1].astype(
         np.float64
@@ -192,10 +168,9 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     -----
     The transforms are in single precision (relative error ~1e-6, far below the estimator's
     own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
-    time and memory; the products and sums are in double precision. With the compiled loops,
-    each level's transform is a four-step one of short transforms in cache
-    (:mod:`stochmod.empirical.four_step`), whose frequencies come out in another order: the
-    Gram matrix does not depend on it. Memory: the J float32 half spectra, about 4 J N bytes,
+    time and memory; the products and sums are in double precision. Each level's transform
+    is a four-step one of short transforms in cache (:mod:`stochmod.empirical.four_step`),
+    whose frequencies come out in another order: the Gram matrix does not depend on it. Memory: the J float32 half spectra, about 4 J N bytes,
     plus ``workers + 1`` float32 FFT buffers of 8 N bytes, two float64 copies of `x` and the
     four-step's tables (0.6 MB at N = 2^20).
     """
