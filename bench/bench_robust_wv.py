@@ -3,9 +3,8 @@
 Run: ``python bench/bench_robust_wv.py [N]``. Both at every level the signal allows, chi2
 intervals; times are the best of 3 runs each, in the same process (the machine may be shared:
 read the ratio, not the absolute times). Also the peak extra memory (tracemalloc) relative to
-the input, and the sandwich ("normal") interval's time for information. With numba installed
-(extra ``fast``) both estimators run compiled Haar loops; the ratio of their pure-numpy
-fallbacks is printed too.
+the input, and the sandwich ("normal") interval's time for information. Both estimators run
+compiled Haar loops (:mod:`stochmod.empirical.haar_jit`).
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ import time
 
 import numpy as np
 
-from stochmod.empirical import haar_jit
 from stochmod.empirical.wavelet_variance import wvar
 from _timing import best_of, peak_ratio
 
@@ -33,25 +31,15 @@ def main(n: int = 2_000_000) -> None:
     t_rb = best_of(lambda: wvar(x, freq, robust=True, efficiency=0.6))
     cpu_cl = best_of(lambda: wvar(x, freq), clock=time.process_time)
     cpu_rb = best_of(lambda: wvar(x, freq, robust=True, efficiency=0.6), clock=time.process_time)
-    numpy_ratio = None
-    if haar_jit.AVAILABLE:  # the pure-numpy fallback of both, same run
-        haar_jit.AVAILABLE = False
-        numpy_ratio = (best_of(lambda: wvar(x, freq, robust=True, efficiency=0.6))
-                       / best_of(lambda: wvar(x, freq)))
-        haar_jit.AVAILABLE = True
     t_nm = best_of(lambda: wvar(x, freq, robust=True, ci="normal"), repeat=1)
     mem = peak_ratio(lambda: wvar(x, freq, robust=True), x.nbytes)
 
     print(f"N = {n:,} samples (WN + RW, 0.1% spikes), Haar levels 1..{robust.levels[-1]}")
     print(f"level-1 WV: classical {classical.wv[0]:.4g}, robust {robust.wv[0]:.4g} (truth 0.5)")
-    path = "compiled loops (numba)" if haar_jit.AVAILABLE else "pure numpy (no numba)"
-    print(f"Haar paths: {path}")
     print(f"classical wvar (chi2 CI)           {t_cl * 1e3:9.1f} ms")
     print(f"robust wvar (biweight, eff 0.6)    {t_rb * 1e3:9.1f} ms")
     print(f"ratio robust / classical           {t_rb / t_cl:9.2f} x   (goal <= 5)")
     print(f"same, CPU time (process_time)      {cpu_rb / cpu_cl:9.2f} x   (less sensitive to load)")
-    if numpy_ratio is not None:
-        print(f"same, both on the pure-numpy path  {numpy_ratio:9.2f} x")
     print(f"peak extra memory of robust wvar   {mem:9.2f} x input")
     print(f"for information: robust, normal CI {t_nm * 1e3:9.1f} ms")
 

@@ -3,9 +3,8 @@
 Run: ``python bench/bench_wvar.py [N]``. Both compute the same quantity at every octave
 (Haar WV = AVAR / 2); times are the best of 3 runs each, in the same process. Also reports the
 peak extra memory of ``wvar`` (tracemalloc) relative to the input array, and the db4 and
-"normal"-interval timings for information. With numba installed (extra ``fast``) the Haar
-path runs compiled loops (:mod:`stochmod.empirical.haar_jit`); the pure-numpy fallback is timed
-too, for information.
+"normal"-interval timings for information. The Haar path runs compiled loops
+(:mod:`stochmod.empirical.haar_jit`).
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ import sys
 import allantools
 import numpy as np
 
-from stochmod.empirical import haar_jit
 from stochmod.empirical.wavelet_variance import wvar
 from _timing import best_of, peak_ratio
 
@@ -33,11 +31,6 @@ def main(n: int = 2_000_000) -> None:
 
     t_sm = best_of(lambda: wvar(x, freq))
     t_at = best_of(lambda: allantools.oadev(x, rate=freq, data_type="freq", taus="octave"))
-    t_numpy = t_sm
-    if haar_jit.AVAILABLE:  # the pure-numpy fallback, same run
-        haar_jit.AVAILABLE = False
-        t_numpy = best_of(lambda: wvar(x, freq))
-        haar_jit.AVAILABLE = True
     t_db4 = best_of(lambda: wvar(x, freq, wavelet="db4"))
     t_norm = best_of(lambda: wvar(x, freq, ci="normal"))
     mem = peak_ratio(lambda: wvar(x, freq), x.nbytes)
@@ -45,13 +38,10 @@ def main(n: int = 2_000_000) -> None:
 
     print(f"N = {n:,} samples (WN + RW), Haar levels 1..{res.levels[-1]}; "
           f"{int(common.sum())} octaves shared with allantools, max rel. diff {agree:.1e}")
-    path = "compiled loops (numba)" if haar_jit.AVAILABLE else "pure numpy (no numba)"
-    print(f"stochmod wvar (haar, chi2 CI)      {t_sm * 1e3:9.1f} ms   ({path})")
+    print(f"stochmod wvar (haar, chi2 CI)      {t_sm * 1e3:9.1f} ms")
     print(f"allantools oadev(taus='octave')    {t_at * 1e3:9.1f} ms")
     print(f"speed-up stochmod / allantools     {t_at / t_sm:9.1f} x   (goal >= 6, issue 14)")
     print(f"peak extra memory of wvar          {mem:9.2f} x input   (goal <= 1.1)")
-    print(f"for information: pure-numpy path   {t_numpy * 1e3:9.1f} ms, "
-          f"{t_at / t_numpy:.1f} x faster than allantools")
     print(f"for information: db4 wvar          {t_db4 * 1e3:9.1f} ms")
     print(f"for information: haar, normal CI   {t_norm * 1e3:9.1f} ms, "
           f"peak memory {mem_norm:.2f} x input")

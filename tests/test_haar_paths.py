@@ -1,11 +1,13 @@
-"""The Haar wavelet variance's two implementations (issues 13 and 14): the pure-numpy path and
-the optional compiled loops (numba, :mod:`stochmod.empirical.haar_jit`) give the same numbers,
-and the robust estimator's one-pass Haar levels equal the M-scale of the coefficients."""
+"""The Haar wavelet variance's compiled loops (:mod:`stochmod.empirical.haar_jit`): each agrees
+with its own plain-Python function, the wavelet variances equal the direct convolution's, and
+the robust estimator's one-pass Haar levels equal the M-scale of the coefficients."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stochmod.core import filters
 from stochmod.core import jit
@@ -13,14 +15,7 @@ from stochmod.empirical import haar_jit, modwt
 from stochmod.empirical.robust_wv import m_scale, scale_rho
 from stochmod.empirical.wavelet_variance import wvar
 
-PATHS = ["numpy", pytest.param("jit", marks=pytest.mark.skipif(
-    not jit.AVAILABLE, reason="numba (the 'fast' extra) is not installed"))]
-
-
-@pytest.fixture(params=PATHS)
-def path(request, monkeypatch):
-    monkeypatch.setattr(haar_jit, "AVAILABLE", request.param == "jit")
-    return request.param
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE, reason="STOCHMOD_DISABLE_JIT is set")
 
 
 def _signal(n: int, seed: int) -> np.ndarray:
@@ -29,7 +24,7 @@ def _signal(n: int, seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("chunk, halo, n", [(64, 4, 5003), (256, 16, 2**13 + 7)])
-def test_classical_sweeps_match_convolution(path, monkeypatch, chunk, halo, n):
+def test_classical_sweeps_match_convolution(monkeypatch, chunk, halo, n):
     """Small blocks, so that sweeps, halos and tails are all exercised."""
     monkeypatch.setattr(modwt, "_CHUNK", chunk)
     monkeypatch.setattr(modwt, "_HALO", halo)
@@ -42,7 +37,7 @@ def test_classical_sweeps_match_convolution(path, monkeypatch, chunk, halo, n):
 
 
 @pytest.mark.parametrize("n", [2, 4097, 10_007])
-def test_level_coefficients_match_convolution(path, n):
+def test_level_coefficients_match_convolution(n):
     """The pyramid with coefficients (eq. 17, the classical WV with intervals): every level's
     interior coefficients and their sum of squares equal the direct convolution's (the
     compiled level runs in place through blocks of 4096 samples: one, two and three here)."""
@@ -59,14 +54,6 @@ def test_level_coefficients_match_convolution(path, n):
     assert seen == levels
 
 
-@pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
-def test_compiled_and_numpy_classical_agree_to_rounding(monkeypatch):
-    x = _signal(300_001, 3)
-    jit = wvar(x, 10.0).wv
-    monkeypatch.setattr(haar_jit, "AVAILABLE", False)
-    np.testing.assert_allclose(jit, wvar(x, 10.0).wv, rtol=1e-13, atol=0)
-
-
 def _contaminated(n: int, seed: int, share: float) -> np.ndarray:
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n) + np.cumsum(1e-2 * rng.standard_normal(n))
@@ -75,10 +62,10 @@ def _contaminated(n: int, seed: int, share: float) -> np.ndarray:
 
 
 @pytest.mark.parametrize("share", [0.001, 0.25])
-def test_robust_one_pass_levels_equal_m_scale_of_the_coefficients(path, share):
+def test_robust_one_pass_levels_equal_m_scale_of_the_coefficients(share):
     """wvar(robust) runs the M-scale inside the pyramid on unscaled differences; it must equal
-    m_scale on the level's coefficients (numpy path: the same float32 sums bit for bit;
-    compiled: float64 sums, within the single-precision bound of test_robust_wv). A quarter
+    m_scale on the level's coefficients (float64 sums against m_scale's float32 ones, within
+    the single-precision bound of test_robust_wv). A quarter
     of spikes puts more coefficients outside the core than the compiled loop records, which
     makes it compute the level again."""
     x = _contaminated(1 << 18, 4, share)
@@ -86,10 +73,7 @@ def test_robust_one_pass_levels_equal_m_scale_of_the_coefficients(path, share):
     res = wvar(x, 1.0, levels=9, robust=True)
     for j in range(1, 10):
         est = m_scale(modwt.modwt_coefficients(x, j), chi)
-        if path == "numpy":
-            assert res.wv[j - 1] == est.variance
-        else:
-            assert res.wv[j - 1] == pytest.approx(est.variance, rel=1e-6)
+        assert res.wv[j - 1] == pytest.approx(est.variance, rel=1e-6)
         assert res.contamination.share[j - 1] == pytest.approx(est.n_rejected / est_size(x, j),
                                                                abs=2.0 / est_size(x, j))
 
@@ -99,7 +83,7 @@ def est_size(x: np.ndarray, j: int) -> int:
 
 
 @pytest.mark.parametrize("unit", [1e-7, 1e6])
-def test_robust_wv_scales_with_the_unit(path, unit):
+def test_robust_wv_scales_with_the_unit(unit):
     """The estimate is a variance: x in another unit gives unit^2 times it. Before the power
     sums were normalised (power of two), u^5 left float32's range: at 1e-7 the estimate was
     ~10 % off and at 1e5 the scale equation 'had no root'."""
@@ -113,7 +97,7 @@ def test_robust_wv_scales_with_the_unit(path, unit):
 
 
 @pytest.mark.parametrize("robust", [False, True])
-def test_a_column_view_gives_the_digits_of_its_contiguous_copy(path, robust):
+def test_a_column_view_gives_the_digits_of_its_contiguous_copy(robust):
     """A column of a 2-D array (a strided view) and the same data contiguous give the same WV
     bit for bit: the compiled sums' order must not follow the memory layout (a selection's
     column result must not depend on the other columns)."""
@@ -123,3 +107,83 @@ def test_a_column_view_gives_the_digits_of_its_contiguous_copy(path, robust):
     view = wvar(table[:, 1], 100.0, **options)
     copy = wvar(np.ascontiguousarray(table[:, 1]), 100.0, **options)
     np.testing.assert_array_equal(view.wv, copy.wv)
+
+
+def _rng_signal(seed: int, n: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.standard_normal(n) + 10.0
+
+
+@needs_numba
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 400), first=st.integers(1, 3), k=st.integers(1, 3),
+       chunk=st.integers(1, 40), last=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_compiled_sweep_equals_its_plain_function(n, first, k, chunk, last, seed):
+    """haar_sweep and the level loops it calls, compiled against plain Python: the same V
+    values bit for bit, the sums of squares to rounding (reassociated partial sums)."""
+    halo = 2 ** (first - 1) * (2**k - 1)
+    src = _rng_signal(seed, n + halo)
+    runs = []
+    for sweep, level, last_level in (
+            (haar_jit.haar_sweep, None, None),
+            (haar_jit.haar_sweep.py_func, haar_jit._level.py_func,
+             haar_jit._last_level.py_func)):
+        v, bufs, totals = np.zeros(n + halo), np.zeros((2, n + 2 * halo)), np.zeros(k)
+        if level is None:
+            sweep(src, v, n + halo, first, k, last, bufs, chunk, totals)
+        else:  # the plain sweep through the plain level loops
+            saved = haar_jit._level, haar_jit._last_level
+            haar_jit._level, haar_jit._last_level = level, last_level
+            try:
+                sweep(src, v, n + halo, first, k, last, bufs, chunk, totals)
+            finally:
+                haar_jit._level, haar_jit._last_level = saved
+        runs.append((v, totals))
+    (v, totals), (v_plain, totals_plain) = runs
+    np.testing.assert_array_equal(v, v_plain)
+    np.testing.assert_allclose(totals, totals_plain, rtol=1e-12, atol=0)
+
+
+@needs_numba
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(2, 9000), step=st.integers(1, 64), update=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_compiled_level_coefficients_equal_their_plain_function(n, step, update, seed):
+    """Across the loop's inner blocks of 4096 samples."""
+    n_valid = n + step
+    x = _rng_signal(seed, n_valid)
+    out = []
+    for kernel in (haar_jit.haar_level_coefficients, haar_jit.haar_level_coefficients.py_func):
+        v, w = x.copy(), np.zeros(n_valid)
+        total = kernel(v, n_valid, step, -0.25, update, w)
+        out.append((v, w, total))
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_array_equal(out[0][1], out[1][1])
+    assert out[0][2] == pytest.approx(out[1][2], rel=1e-12)
+
+
+@needs_numba
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(2, 9000), step=st.integers(1, 64), cap=st.integers(0, 50),
+       stride=st.integers(1, 300), core=st.floats(0.05, 20.0), in_place=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_compiled_power_sums_equal_their_plain_function(n, step, cap, stride, core, in_place,
+                                                        seed):
+    """The sums, the coefficients outside the core (more than `cap` of them too) and the next
+    level's subsample; in place or into another array."""
+    n_valid = n + step
+    x = _rng_signal(seed, n_valid)
+    m_next = max(n - 2 * step, 0)
+    out = []
+    for kernel in (haar_jit.haar_level_power_sums, haar_jit.haar_level_power_sums.py_func):
+        src = x.copy()
+        dst = src if in_place else np.zeros(n)
+        sums, idx, big = np.zeros(6), np.zeros(cap, dtype=np.int64), np.zeros(cap)
+        left, right = np.zeros((2, -(-m_next // stride)))
+        nb = kernel(src, dst, n_valid, step, 0.5, core, sums, idx, big, stride, left, right)
+        out.append((nb, dst[:n].copy(), idx, big, left, right, sums))
+    (nb, *arrays, sums), (nb_plain, *plain, sums_plain) = out
+    assert nb == nb_plain
+    for got, want in zip(arrays, plain):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_allclose(sums, sums_plain, rtol=1e-11, atol=0)

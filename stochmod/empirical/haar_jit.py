@@ -1,30 +1,22 @@
-"""Optional compiled loops (numba) for the Haar MODWT pyramid's hot paths.
+"""Compiled loops of the Haar MODWT pyramid (:mod:`stochmod.empirical.modwt`) and of the robust
+wavelet variance (:mod:`stochmod.empirical.robust_wv`).
 
-numba is an optional dependency (the ``fast`` extra). Without it, :data:`AVAILABLE` is False
-and :mod:`stochmod.empirical.modwt` and :mod:`stochmod.empirical.robust_wv` run their pure-numpy
-paths, which give the same numbers up to the order in which sums are accumulated (and, for
-the robust power sums, the single precision of the numpy path, see
-:mod:`stochmod.empirical.robust_wv`). Setting the environment variable
-``STOCHMOD_DISABLE_JIT=1`` before importing stochmod forces the numpy paths.
-
-Why compiled loops (docs/performance.md): numpy needs three calls per Haar level (a
-difference, its sum of squares, the in-place sum of the two halves) and, for the robust
-estimator, about ten more per block for the power sums; each call reads and writes its
-block. One loop does all of it per sample: two loads, one store and a few flops.
-
-Every coefficient ``V_{j-1,t+s} - V_{j-1,t}`` and every sum ``V_{j-1,t} + V_{j-1,t+s}`` is
-the same floating-point operation as in the numpy paths; only the accumulation order of the
-sums of squares differs (``reassoc`` lets LLVM keep several partial sums in SIMD lanes).
+Each level reads the unscaled sums ``V_{j-1}`` once: the coefficient
+``V_{j-1,t+s} - V_{j-1,t}`` (``2^j W_{j,t}`` up to the sign, ``s = 2^(j-1)``), its square
+summed, and the next level's sums ``V_{j-1,t} + V_{j-1,t+s}``, per sample, with two loads and
+one store. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
+``STOCHMOD_DISABLE_JIT=1`` the same functions run as plain Python. The sums of squares are
+accumulated in several partial sums (``reassoc``), in an order set by the memory layout: the
+callers pass contiguous arrays.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from stochmod.core.jit import AVAILABLE, compiled
+from stochmod.core.jit import compiled
 
-__all__ = ["AVAILABLE", "compiled", "haar_level_coefficients", "haar_level_power_sums",
-           "haar_sweep"]
+__all__ = ["haar_level_coefficients", "haar_level_power_sums", "haar_sweep"]
 
 _BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
 _GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
@@ -72,10 +64,16 @@ def _last_level(cur: np.ndarray, out: np.ndarray, own: int, step: int,
 @compiled
 def haar_sweep(src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
                bufs: np.ndarray, chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
-    """Haar levels ``first .. first + k - 1`` in one pass over memory, blocked as
-    :func:`stochmod.empirical.modwt._haar_sweep` (same arguments, but two block buffers, the
-    rows of `bufs`, that the levels of a block alternate between; the sums of the unscaled
-    W^2 go to ``totals[:k]``)."""
+    """Haar levels ``first .. first + k - 1`` in one pass over memory.
+
+    `src[:n_valid]` holds the unscaled sums V_{first-1} (the signal itself for first = 1);
+    ``v[:n_valid - halo]`` receives V_{first+k-1} (skipped when `last`: nothing follows), with
+    ``halo = 2^(first-1) (2^k - 1)``. Each block of `chunk` output samples is read once with
+    its halo, and all k levels are computed in the two rows of `bufs` (each at least
+    ``chunk + halo`` samples), which the levels of a block alternate between. The sums of the
+    unscaled ``(2^j W_j)^2`` go to ``totals[:k]``; every W and V value is the same
+    floating-point operation as in a level-by-level pyramid.
+    """
     halo = 0
     for i in range(k):
         halo += 2 ** (first - 1 + i)
@@ -108,8 +106,7 @@ def haar_level_coefficients(v: np.ndarray, n_valid: int, step: int, factor: floa
     ``V = v[:n_valid]``: ``w_out[t] = (V[t + step] - V[t]) * factor`` for the
     ``M = n_valid - step`` interior positions; returns the sum of ``(V[t + step] - V[t])^2``;
     if `update`, ``v[t]`` becomes ``V[t] + V[t + step]`` (t < M, the next level's sums),
-    block by block through a buffer, so that the in-place update reads only old values.
-    The loop of :func:`stochmod.empirical.modwt.haar_differences` and its caller's scaling."""
+    block by block through a buffer, so that the in-place update reads only old values."""
     m = n_valid - step
     acc = 0.0
     buf = np.empty(_BLOCK)

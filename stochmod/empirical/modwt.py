@@ -19,7 +19,8 @@ power-of-two length). For Haar the pyramid is a moving-sum doubling: each level 
 addition and one subtraction per sample; unlike differences of one cumulative sum, its
 round-off does not grow with N or with the signal's mean. When only the sums of squares are
 needed (the wavelet variance), the shallow Haar levels are computed several at a time, block
-by block, in one pass over memory (:func:`_haar_sweep`).
+by block, in one pass over memory; the Haar levels run as compiled loops
+(:mod:`stochmod.empirical.haar_jit`).
 """
 
 from __future__ import annotations
@@ -38,7 +39,6 @@ __all__ = [
     "modwt_coefficients",
     "iter_modwt",
     "pyramid",
-    "haar_differences",
 ]
 
 _CHUNK = 1 << 16  # samples per block of the pyramid: the working set stays in cache
@@ -67,65 +67,6 @@ def _haar_block(levels: int, first: int, chunk: int) -> int:
     return k
 
 
-def _haar_sweep(
-    src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
-    scratch: np.ndarray, local: np.ndarray,
-) -> list[float]:
-    """Haar levels ``first .. first + k - 1`` in one pass over memory; return their sums of W^2.
-
-    `src[:n_valid]` holds the unscaled sums V_{first-1} (the signal itself for first = 1);
-    ``v[:n_valid - halo]`` receives V_{first+k-1} (skipped when `last`: nothing follows).
-    Each block of ``_CHUNK`` output samples is read once with its halo of
-    ``2^(first-1) (2^k - 1)`` samples, and all k levels are computed in the cache-sized
-    `local` buffer; every W and V value is the same floating-point operation as in a
-    level-by-level pyramid (only the order in which the squares are summed differs).
-    """
-    chunk = _CHUNK
-    steps = [2 ** (first - 1 + i) for i in range(k)]
-    halo = sum(steps)
-    end = n_valid - halo  # M of the block's last level = length of its V
-    totals = [0.0] * k
-    for s in range(0, end, chunk):
-        e = min(s + chunk, end)
-        tail = e == end  # the last block also owns the tails of the shallower levels
-        size = (n_valid if tail else e + halo) - s  # samples of V_{first-1} read
-        cur, base = src, s  # level input: cur[base : base + size]
-        for i, step in enumerate(steps):
-            size -= step  # M of this level within the block
-            own = size if tail else e - s
-            w = np.subtract(cur[base + step : base + step + own], cur[base : base + own],
-                            out=scratch[:own])
-            totals[i] += _sumsq(w)
-            if i < k - 1:  # V of this level, over the block and what the next levels need
-                np.add(cur[base : base + size], cur[base + step : base + step + size],
-                       out=local[:size])
-            elif not last:  # the block's last V goes to the work array
-                own = e - s
-                np.add(cur[base : base + own], cur[base + step : base + step + own],
-                       out=v[s:e])
-            cur, base = local, 0
-    return totals
-
-
-def haar_differences(
-    v: np.ndarray, n_valid: int, step: int, update: bool, scratch: np.ndarray
-) -> Iterator[tuple[int, np.ndarray]]:
-    """One Haar level over the unscaled sums ``V = v[:n_valid]``, block by block, in place.
-
-    Yields ``(s, d)`` with ``d = V[s + step + i] - V[s + i]`` (``2^j W_j`` up to the sign)
-    for the ``M = n_valid - step`` interior positions, ``_CHUNK`` at a time, in a view of
-    `scratch` that the caller may overwrite. After each yield, if `update`, ``v[s:s+len(d)]``
-    becomes ``V[s + i] + V[s + step + i]`` (the next level's sums): only positions the later
-    blocks no longer read.
-    """
-    m = n_valid - step
-    for s in range(0, m, _CHUNK):
-        e = min(s + _CHUNK, m)
-        yield s, np.subtract(v[s + step : e + step], v[s:e], out=scratch[: e - s])
-        if update:
-            np.add(v[s:e], v[s + step : e + step], out=v[s:e])
-
-
 def pyramid(
     x: np.ndarray, levels: int, wavelet: str, w_out: np.ndarray | None = None,
     sumsq: bool = True,
@@ -150,23 +91,16 @@ def pyramid(
     item = v.strides[0]
     sign = 1.0 if h[0] > 0 else -1.0
     coef = np.vstack([h[::-1], g[::-1]])  # rows: taps at offsets 0, step, ..., (L1-1) step
-    scratch = np.empty(_CHUNK)
     for j in range(1, levels + 1):
         step = 2 ** (j - 1)
         m = n_valid - step * (width1 - 1)
         update = j < levels  # the scaling coefficients are not needed after the last level
         rows = coef if update else coef[:1]
         total = 0.0
-        if haar and haar_jit.AVAILABLE:  # the loop below and the scaling, compiled
+        if haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
             total = haar_jit.haar_level_coefficients(v, n_valid, step, sign * 0.5**j, update,
                                                      w_out)
             total = total if sumsq else 0.0
-        elif haar:  # W_j = (newer half-sum - older half-sum) / 2^j ; V_j (unscaled) = their sum
-            for s, w in haar_differences(v, n_valid, step, update, scratch):
-                if sumsq:
-                    total += _sumsq(w)
-                if w_out is not None:
-                    np.multiply(w, sign * 0.5**j, out=w_out[s : s + w.size])
         else:
             for s in range(0, m, _CHUNK):
                 e = min(s + _CHUNK, m)
@@ -186,26 +120,23 @@ def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]
     """:func:`pyramid` for Haar without coefficients: several levels per pass over memory.
 
     The shallow levels, whose filters are short next to a block, are computed block by block
-    through all of them at once (:func:`_haar_sweep`); the first level reads `x` directly, so
-    no copy of the signal is made beyond the one work array of the sums.
+    through all of them at once (:func:`stochmod.empirical.haar_jit.haar_sweep`); the first
+    level reads `x` directly, so no copy of the signal is made beyond the one work array of
+    the sums.
     """
     v = np.empty(x.size)
     size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
-    bufs = np.empty((2, size))  # the block buffers (numpy: scratch and local)
-    scratch, local = bufs
+    bufs = np.empty((2, size))  # the block buffers that a block's levels alternate between
     # the compiled loops keep reassociated partial sums whose order follows the memory layout:
     # a strided view (a column of a 2-D array) is made contiguous so that it gives the digits
     # of the same data stored contiguously
-    src = np.ascontiguousarray(x) if haar_jit.AVAILABLE else x
+    src = np.ascontiguousarray(x)
     n_valid, j = x.size, 1
     while j <= levels:
         k = _haar_block(levels, j, _CHUNK)
         last = j + k - 1 == levels
-        if haar_jit.AVAILABLE:
-            totals = np.empty(k)
-            haar_jit.haar_sweep(src, v, n_valid, j, k, last, bufs, _CHUNK, totals)
-        else:
-            totals = _haar_sweep(src, v, n_valid, j, k, last, scratch, local)
+        totals = np.empty(k)
+        haar_jit.haar_sweep(src, v, n_valid, j, k, last, bufs, _CHUNK, totals)
         for i, total in enumerate(totals):
             n_valid -= 2 ** (j - 1 + i)
             yield j + i, total * 0.25 ** (j + i), n_valid

@@ -50,7 +50,7 @@ coefficients with ``W^2 <= c^2 nu_0 / 2`` (certainly inside the biweight's suppo
 root in ``[nu_0 / 2, 2 nu_0]``: ``chi`` is a polynomial there) and the indices of the few
 others; the root is then found exactly (Brent) on this summary, and the bracket widened if the
 root is outside it. For Haar with chi-square intervals the pass is the pyramid's own level
-step (:func:`_haar_scales`: no coefficient array), in numpy or, with numba, one compiled loop
+step (:func:`_haar_scales`: no coefficient array), one compiled loop
 (:mod:`stochmod.empirical.haar_jit`). The coefficients are scaled by a power of two so that the
 powers up to ``u^5`` stay in float32's range whatever the signal's unit.
 """
@@ -492,33 +492,27 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     (``W_j = d / 2^j`` up to the sign) times the power of two ``2^-j norm``
     (:func:`_normaliser`): every value is ``norm`` times the one :func:`m_scale` sees, so the
     result is the same, divided back by ``norm^2`` exactly. The start nu_0 comes from a
-    subsample of d taken before the pass (by the compiled loop of the previous level); the pass then computes d block by block, adds
-    the block's power sums (:func:`_accumulate`, or one compiled loop,
-    :mod:`stochmod.empirical.haar_jit`) and updates the work array to V_j. The coefficients are
-    never stored: where the first bracket fails (rare), they are computed again.
+    subsample of d taken before the pass (by the compiled loop of the previous level); one
+    compiled loop (:func:`stochmod.empirical.haar_jit.haar_level_power_sums`) then computes d,
+    its power sums and the next level's sums V_j. The coefficients are never stored: where
+    the first bracket fails (rare), they are computed again.
     """
     c2 = rho.c * rho.c
     n_valid = x.size
-    jit = haar_jit.AVAILABLE
-    # the start only sets the bracket and the core (the root is exact either way): the
-    # compiled path takes a 4x smaller subsample (its median cost 10 % of the time); the numpy
-    # path keeps m_scale's, so that it gives m_scale's numbers bit for bit
-    sub_size = 16384 if jit else 65536
-    if jit:  # level 1 reads x and writes V_1 to the work array; then in place
-        # contiguous: the compiled sums' order follows the memory layout (see modwt)
-        v, work = np.ascontiguousarray(x), np.empty(n_valid - 1)
-        # room for the coefficients outside the core: an outlier touches 2^j of them
-        big_idx = np.empty(max(1024, n_valid // 8), dtype=np.int64)
-        big_w = np.empty(big_idx.size)
-    else:  # V_{j-1}, unscaled sums, in place
-        v = np.array(x, dtype=np.float64, copy=True)
-        scratch = np.empty(min(_CHUNK, n_valid))
+    # the start only sets the bracket and the core (the root is exact either way): a 4x
+    # smaller subsample than m_scale's, whose median would otherwise dominate a level's time
+    sub_size = 16384
+    # level 1 reads x and writes V_1 to the work array; then in place; contiguous: the
+    # compiled sums' order follows the memory layout (see modwt)
+    v, work = np.ascontiguousarray(x), np.empty(n_valid - 1)
+    # room for the coefficients outside the core: an outlier touches 2^j of them
+    big_idx = np.empty(max(1024, n_valid // 8), dtype=np.int64)
+    big_w = np.empty(big_idx.size)
+    stride = _subsample(n_valid - 1, sub_size)
+    sub = np.square(v[1 : n_valid : stride] - v[: n_valid - 1 : stride])
     for j in range(1, levels + 1):
         step = 2 ** (j - 1)
         m = n_valid - step
-        if not jit or j == 1:
-            stride = _subsample(m, sub_size)
-            sub = np.square(v[step : step + m : stride] - v[:m:stride])
         scale_j = 2.0**-j  # W_j = d / 2^j: v0 of W_j, as m_scale computes it
         try:
             v0 = _start(sub) * scale_j**2
@@ -528,30 +522,17 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
         f = scale_j * norm
         v0 *= norm * norm
         core = c2 * 0.5 * v0
-        update = j < levels
         sums = np.zeros(6)
-        if jit:  # the kernel also copies the next level's subsample
-            m_next = max(m - 2 * step, 0) if update else 0
-            stride = _subsample(m_next, sub_size)
-            left, right = np.empty((2, -(-m_next // stride)))
-            nb = haar_jit.haar_level_power_sums(v, work, n_valid, step, f, core, sums,
-                                                 big_idx, big_w, stride, left, right)
-            sub = np.square(right - left)
-            complete = nb <= big_idx.size
-            idx, wb = big_idx[:nb].copy(), big_w[:nb].copy()
-            v = work
-        else:
-            blocks = _block_buffers(m, m >= _SINGLE_MIN)
-            idx_parts, w_parts = [], []
-            for s, d in modwt.haar_differences(v, n_valid, step, update, scratch):
-                np.multiply(d, f, out=d)
-                local = _accumulate(d, core, sums, blocks)
-                if local.size:
-                    idx_parts.append(local + s)
-                    w_parts.append(d[local])
-            complete = True
-            idx = np.concatenate(idx_parts) if idx_parts else np.empty(0, dtype=np.intp)
-            wb = np.concatenate(w_parts) if w_parts else np.empty(0)
+        # the kernel also copies the next level's subsample
+        m_next = max(m - 2 * step, 0) if j < levels else 0
+        stride = _subsample(m_next, sub_size)
+        left, right = np.empty((2, -(-m_next // stride)))
+        nb = haar_jit.haar_level_power_sums(v, work, n_valid, step, f, core, sums,
+                                             big_idx, big_w, stride, left, right)
+        sub = np.square(right - left)
+        complete = nb <= big_idx.size
+        idx, wb = big_idx[:nb].copy(), big_w[:nb].copy()
+        v = work
         sums /= v0 ** np.arange(6.0)
 
         def full(j: int = j, norm: float = norm) -> np.ndarray:
