@@ -2,9 +2,8 @@
 (:func:`stochmod.workflows.fleet.start_process_server`): the modules a calibration task needs, the
 registered plugins, and the compiled loops of its first task.
 
-A fresh worker would pay all of it in its first task: the imports (1-3 s), and numba's
-cache loads of the WV sweep, the eq. 17 spectra, the GM's closed form and the Allan sums
-(six loops, about 1 s). Importing this module pays them once, in the server, while the
+A fresh worker would pay all of it in its first task: the imports, and numba's cache loads
+of the WV sweep, the eq. 17 spectra, the GM's closed form and the Allan sums (six loops). Importing this module pays them once, in the server, while the
 command's own process is still importing; every worker forked from the server starts with
 them. The warm-up is a one-column selection of :data:`WARM_N` samples of white noise and
 the Allan reading of its datasheet (the results are discarded), large enough to take the
