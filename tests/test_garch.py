@@ -85,10 +85,9 @@ def test_score_and_information_against_finite_differences() -> None:
     # only in expectation; here check symmetry and positive definiteness, and the identity
     # info = 1/2 sum (ds2/s2)(ds2/s2)^T against the outer product of numerical ds2
     assert np.allclose(info, info.T) and np.all(np.linalg.eigvalsh(info) > 0)
-    from stochmod.fit.garch import _recursion
 
     def s2(th: np.ndarray) -> np.ndarray:
-        return _recursion(th[0], th[1:3], th[3:], lik.x2, lik.bc)
+        return lik.variance(th)[1]
 
     ds2 = np.array([(s2(theta + h * e) - s2(theta - h * e)) / (2 * h) for e in np.eye(4)])
     scaled = ds2 / s2(theta)

@@ -1,9 +1,7 @@
-"""GARCH(p, q)'s two implementations: the compiled one-pass kernel (numba, the ``fast`` extra,
-:mod:`stochmod.fit.garch_jit`) and the numpy/lfilter fallback give the same likelihood,
-score and information matrices, and the same maxima.
+"""GARCH(p, q)'s compiled pass (:mod:`stochmod.fit.garch_jit`) against its own plain-Python
+functions; the refusal of a variance that is not positive and finite; compilation before forks.
 
-Truth: the numpy path, itself checked against a plain loop and finite differences in
-tests/test_garch.py, and the simulation's known parameters.
+Truth for the pass itself: a plain loop and finite differences in tests/test_garch.py.
 """
 
 from __future__ import annotations
@@ -14,67 +12,59 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stochmod.core import jit
 from stochmod.fit import garch
 from stochmod.fit import garch_jit
-from test_garch import simulate_garch  # eq. 7 by a plain loop
+from test_garch import loop_variance, simulate_garch  # eq. 7 by a plain loop
 
-needs_numba = pytest.mark.skipif(not jit.AVAILABLE, reason="numba (the 'fast' extra) is "
-                                 "not installed, or STOCHMOD_DISABLE_JIT is set")
-
-
-def _both(monkeypatch, make):
-    """``make()`` on the compiled path, then on the numpy path."""
-    monkeypatch.setattr(garch_jit, "AVAILABLE", True)
-    compiled = make()
-    monkeypatch.setattr(garch_jit, "AVAILABLE", False)
-    return compiled, make()
+needs_numba = pytest.mark.skipif(not jit.AVAILABLE, reason="STOCHMOD_DISABLE_JIT is set")
 
 
-@needs_numba
-@pytest.mark.parametrize("p, q, theta", [
-    (1, 1, [0.1, 0.1, 0.8]), (2, 1, [0.08, 0.12, 0.04, 0.72]), (1, 2, [0.08, 0.12, 0.4, 0.3]),
-    (2, 2, [0.05, 0.08, 0.03, 0.5, 0.35]), (2, 0, [0.5, 0.2, 0.1]),
-    (3, 3, [0.04, 0.05, 0.03, 0.02, 0.3, 0.25, 0.3])])
-def test_compiled_terms_equal_the_numpy_ones(monkeypatch, p, q, theta) -> None:
-    """5003 samples: ten blocks of the compiled pass and a partial one."""
-    x = simulate_garch(5003, 0.05, [0.1, 0.05], [0.7], seed=4)
-    y = x / np.sqrt(np.mean(x * x))
-    theta = np.array(theta)
-    jit, ref = _both(monkeypatch, lambda: garch._Likelihood(y, p, q).terms(theta, hessian=True))
-    assert jit[0] == pytest.approx(ref[0], rel=1e-13)
-    np.testing.assert_allclose(jit[3], ref[3], rtol=1e-14)  # sigma^2
-    for got, want in zip((jit[1], jit[2], jit[4]), (ref[1], ref[2], ref[4])):
-        np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-12 * np.abs(want).max())
-    value, _ = _both(monkeypatch, lambda: garch._Likelihood(y, p, q).value(theta))
-    assert value == jit[0]
+def _pass(kernel, x2, bc, theta, p, level):
+    k = theta.size
+    s2, score, info, observed = np.zeros(x2.size), np.zeros(k), np.zeros((k, k)), np.zeros((k, k))
+    ll = kernel(x2, bc, theta[0], theta[1 : 1 + p].copy(), theta[1 + p :].copy(), level, s2,
+                score, info, observed)
+    return ll, s2, score, info, observed
 
 
 @needs_numba
-def test_compiled_pass_refuses_a_non_positive_variance(monkeypatch) -> None:
+@settings(max_examples=30, deadline=None)
+@given(p=st.integers(1, 3), q=st.integers(0, 3), n=st.integers(1, 1500), level=st.integers(0, 2),
+       seed=st.integers(0, 2**32 - 1))
+def test_compiled_pass_equals_its_plain_function(p, q, n, level, seed):
+    """Up to three blocks of 512 samples, every level of output."""
+    rng = np.random.default_rng(seed)
+    shares = rng.dirichlet(np.ones(p + q + 1)) * 0.99
+    theta = np.concatenate([[0.1], shares[: p + q]])
+    x2 = np.square(rng.standard_normal(n))
+    bc = garch.backcast(x2)
+    got = _pass(garch_jit.garch_pass, x2, bc, theta, p, level)
+    want = _pass(garch_jit.garch_pass.py_func, x2, bc, theta, p, level)
+    assert got[0] == pytest.approx(want[0], rel=1e-12)
+    np.testing.assert_allclose(got[1], want[1], rtol=1e-13, atol=0)  # sigma^2
+    for a, b in zip(got[2:], want[2:]):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * max(np.abs(b).max(), 1.0))
+    s2 = np.zeros(n)
+    garch_jit.variance_recursion(x2, bc, theta[0], theta[1 : 1 + p].copy(), theta[1 + p :].copy(),
+                                 s2)
+    s2_plain = np.zeros(n)
+    garch_jit.variance_recursion.py_func(x2, bc, theta[0], theta[1 : 1 + p].copy(),
+                                         theta[1 + p :].copy(), s2_plain)
+    np.testing.assert_allclose(s2, s2_plain, rtol=1e-13, atol=0)
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered")
+def test_pass_refuses_a_non_positive_variance() -> None:
     x = simulate_garch(2000, 0.05, [0.1], [0.8], seed=1)
-    bad = np.array([-0.1, 0.1, 0.8])
-    jit, ref = _both(monkeypatch, lambda: garch._Likelihood(x, 1, 1).value(bad))
-    assert jit == ref == -np.inf
-    s2, s2_ref = _both(monkeypatch, lambda: garch.garch_variance(x, 1e300, [0.1], [0.8]))
-    np.testing.assert_array_equal(s2, s2_ref)  # inf from overflow: the numpy recursion's array
-
-
-@needs_numba
-@pytest.mark.parametrize("p, q, truth", [(1, 1, (0.05, [0.08], [0.9])),
-                                         (2, 2, (0.05, [0.06, 0.04], [0.5, 0.35]))])
-def test_both_paths_reach_the_same_maximum(monkeypatch, p, q, truth) -> None:
-    """Through the prefix path too (shortened here), where collapsed shares are raised."""
-    monkeypatch.setattr(garch, "_PREFIX_SAMPLES", 15_000)
-    x = 1e-4 * simulate_garch(60_001, *truth, seed=21)
-    jit, ref = _both(monkeypatch, lambda: garch.fit_garch(x, p, q))
-    assert jit.converged and ref.converged
-    assert abs(jit.loglikelihood - ref.loglikelihood) < 1e-8 * abs(ref.loglikelihood)
-    np.testing.assert_array_less(np.abs(jit.params - ref.params), 1e-3 * ref.std_errors)
-    np.testing.assert_allclose(jit.std_errors, ref.std_errors, rtol=1e-4)
-    est = np.concatenate([[truth[0] * 1e-8], truth[1], truth[2]])
-    assert np.all(np.abs(jit.params - est) < 4 * jit.std_errors), (jit.params, jit.std_errors)
+    assert garch._Likelihood(x, 1, 1).value(np.array([-0.1, 0.1, 0.8])) == -np.inf
+    assert garch.garch_loglikelihood(x, 1e308, [0.1], [0.8]) == -np.inf
+    s2 = garch.garch_variance(x, 1e308, [0.1], [0.8])  # overflows: every variance, as it is
+    assert np.isinf(s2).any()
+    np.testing.assert_allclose(s2, loop_variance(x, 1e308, [0.1], [0.8]), rtol=1e-12)
 
 
 def test_raised_shares_keep_the_sum_and_the_floor() -> None:
@@ -85,12 +75,13 @@ def test_raised_shares_keep_the_sum_and_the_floor() -> None:
     assert raised[3] == pytest.approx(0.5 - garch._SHARE_FLOOR, abs=1e-15)
 
 
-def test_disable_jit_environment_variable_forces_numpy() -> None:
+def test_disable_jit_environment_variable_gives_the_plain_functions() -> None:
     env = dict(os.environ, STOCHMOD_DISABLE_JIT="1")
-    out = subprocess.run([sys.executable, "-c", "from stochmod.fit import garch_jit; "
-                          "print(garch_jit.AVAILABLE)"], env=env, capture_output=True, text=True,
+    code = ("from stochmod.fit import garch_jit; import sys; "
+            "print(hasattr(garch_jit.garch_pass, 'py_func'), 'numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)
-    assert out.stdout.strip() == "False"
+    assert out.stdout.strip() == "False False"
 
 
 @needs_numba

@@ -9,13 +9,10 @@ stationary). Pre-sample values of ``x^2`` and ``sigma^2`` are the exponentially 
 backcast ``sum_k w_k x_k^2``, ``w_k`` proportional to ``0.94^k`` over the first
 ``min(75, T)`` samples (the convention of the ``arch`` package, so that log-likelihoods compare).
 
-The variance recursion is a first-order-in-``sigma^2`` IIR filter of ``x^2``: one
-:func:`scipy.signal.lfilter` call gives every ``sigma_t^2`` exactly, and the derivatives of
-``sigma_t^2`` with respect to the parameters obey the same recursion (one more filter call
-for all of them), so the log-likelihood, its analytic gradient and the expected (Fisher)
-information ``J = 1/2 sum_t (d sigma_t^2)(d sigma_t^2)^T / sigma_t^4`` (eq. 9) are vectorised.
-With numba (the ``fast`` extra) one compiled pass over the data computes all of them at once
-(:mod:`stochmod.fit.garch_jit`); the numpy path is the fallback and reaches the same maxima.
+The derivatives of ``sigma_t^2`` with respect to the parameters obey the same recursion, so
+the log-likelihood, its analytic gradient, the expected (Fisher) information
+``J = 1/2 sum_t (d sigma_t^2)(d sigma_t^2)^T / sigma_t^4`` (eq. 9) and the observed information
+come from one compiled pass over the data (:func:`stochmod.fit.garch_jit.garch_pass`).
 The maximum is found by Newton steps on the observed information (Fisher scoring where it is
 not positive definite) with Levenberg damping in unconstrained coordinates (``log omega``;
 ``alpha, beta`` and the slack ``1 - sum alpha - sum beta`` as a softmax), from the best point of
@@ -31,7 +28,6 @@ import math
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import lfilter, lfiltic
 
 from stochmod.core.fields import array_field
 from stochmod.core.checks import as_signal, check_alpha, check_positive_int
@@ -43,7 +39,6 @@ from stochmod.fit.arch_lm import ArchLMTest, arch_lm_test
 __all__ = ["GarchFit", "fit_garch", "garch_loglikelihood", "garch_variance", "select_garch",
            "backcast"]
 
-_LOG_2PI = math.log(2.0 * math.pi)
 _LOG_MAX = math.log(np.finfo(np.float64).max)
 _BACKCAST_DECAY = 0.94
 _BACKCAST_SAMPLES = 75
@@ -62,45 +57,6 @@ def backcast(x2: np.ndarray) -> float:
     tau = min(_BACKCAST_SAMPLES, x2.size)
     w = _BACKCAST_DECAY ** np.arange(tau)
     return float(np.dot(w / w.sum(), x2[:tau]))
-
-
-def _lagged(series: np.ndarray, lag: int, pre: float) -> np.ndarray:
-    """``series[t - lag]`` with the pre-sample value `pre` for ``t < lag``."""
-    out = np.empty_like(series)
-    out[:lag] = pre
-    out[lag:] = series[:-lag]
-    return out
-
-
-def _recursion(omega: float, alpha: np.ndarray, beta: np.ndarray, x2: np.ndarray,
-               bc: float) -> np.ndarray:
-    """``sigma_t^2`` of eq. 7 for every t (one IIR filter)."""
-    u = np.full_like(x2, omega)
-    for i, a in enumerate(alpha, start=1):
-        u += a * _lagged(x2, i, bc)
-    den = np.concatenate([[1.0], -beta])
-    if beta.size == 0:
-        return u
-    zi = lfiltic([1.0], den, np.full(beta.size, bc))
-    return lfilter([1.0], den, u, zi=zi)[0]
-
-
-def _derivatives(beta: np.ndarray, drive: np.ndarray) -> np.ndarray:
-    """``d sigma_t^2 / d (omega, alpha, beta)`` from the rows `drive` (1 + p + q, T) of the
-    recursion's inputs ``(1, x^2_{t-i}, sigma^2_{t-j})``: the same IIR filter (zero pre-sample)."""
-    if beta.size == 0:
-        return drive
-    return lfilter([1.0], np.concatenate([[1.0], -beta]), drive, axis=1)
-
-
-def _adjoint_filter(beta: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``F^T u`` for the causal filter ``F = 1 / (1 - sum_j beta_j B^j)`` (zero pre-sample):
-    ``sum_t u_t (F d)_t = sum_t (F^T u)_t d_t`` for every series d (the filter run backwards)."""
-    return lfilter([1.0], np.concatenate([[1.0], -beta]), u[::-1])[::-1]
-
-
-def _loglik(s2: np.ndarray, x2: np.ndarray) -> float:
-    return -0.5 * float(x2.size * _LOG_2PI + np.sum(np.log(s2)) + np.sum(x2 / s2))
 
 
 def _split(theta: np.ndarray, p: int) -> tuple[float, np.ndarray, np.ndarray]:
@@ -178,113 +134,55 @@ def _theta_jacobian(z: np.ndarray, theta: np.ndarray) -> np.ndarray:
 
 
 class _Likelihood:
-    """Log-likelihood, score, expected information and observed Hessian of scaled data.
-
-    Through the compiled pass of :mod:`stochmod.fit.garch_jit` when it is available at
-    construction, else through numpy and :func:`scipy.signal.lfilter` (which keeps the
-    variances of its last two evaluations for the :meth:`terms` that follows an accepted step).
-    """
+    """Log-likelihood, score, expected information and observed Hessian of scaled data,
+    through the compiled pass :func:`stochmod.fit.garch_jit.garch_pass`."""
 
     def __init__(self, y: np.ndarray, p: int, q: int):
         self.x2 = np.ascontiguousarray(y * y)
         self.bc = backcast(self.x2)
         self.p, self.q = p, q
-        self.compiled = garch_jit.AVAILABLE
-        self._drive: np.ndarray | None = None
-        self._recent: dict[bytes, np.ndarray] = {}
 
     def _compiled_pass(self, theta: np.ndarray, level: int, s2: np.ndarray | None = None
                        ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         k = theta.size
         score, info, observed = np.zeros(k), np.zeros((k, k)), np.zeros((k, k))
-        ll = garch_jit.garch_pass(self.x2, self.bc, float(theta[0]),
-                                  np.ascontiguousarray(theta[1 : 1 + self.p]),
-                                  np.ascontiguousarray(theta[1 + self.p :]), level,
-                                  np.empty(0) if s2 is None else s2, score, info, observed)
+        ll = garch_jit.garch_pass(self.x2, self.bc, float(theta[0]), *self._coefficients(theta),
+                                  level, np.empty(0) if s2 is None else s2, score, info, observed)
         return ll, score, info, observed
+
+    def _coefficients(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return (np.ascontiguousarray(theta[1 : 1 + self.p]),
+                np.ascontiguousarray(theta[1 + self.p :]))
 
     def variance(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
         """Log-likelihood (-inf where a variance is not positive and finite) and sigma^2 (T,)."""
-        omega, alpha, beta = _split(theta, self.p)
-        if self.compiled:
-            s2 = np.empty_like(self.x2)
-            ll = self._compiled_pass(theta, 0, s2)[0]
-            if ll > -math.inf:
-                return ll, s2
-        s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
-        if not np.all(s2 > 0) or not np.all(np.isfinite(s2)):
-            return -math.inf, s2
-        return _loglik(s2, self.x2), s2
+        s2 = np.empty_like(self.x2)
+        ll = self._compiled_pass(theta, 0, s2)[0]
+        if ll == -math.inf:  # the pass stopped at that variance: all of them, as they are
+            garch_jit.variance_recursion(self.x2, self.bc, float(theta[0]),
+                                         *self._coefficients(theta), s2)
+        return ll, s2
 
     def value(self, theta: np.ndarray) -> float:
         """Log-likelihood (-inf where a variance is not positive and finite)."""
-        if self.compiled:
-            return self._compiled_pass(theta, 0)[0]
-        ll, s2 = self.variance(theta)
-        if len(self._recent) >= 2:
-            self._recent.pop(next(iter(self._recent)))
-        self._recent[theta.tobytes()] = s2
-        return ll
+        return self._compiled_pass(theta, 0)[0]
 
-    def full(self, theta: np.ndarray, s2: np.ndarray | None = None
-             ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """Log-likelihood, score (k,), expected information (k, k) and sigma^2 (T,).
+    def full(self, theta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """Log-likelihood, score (k,), expected information (k, k) and sigma^2 (T,)."""
+        return self.terms(theta)[:4]
 
-        `s2`, the variances at `theta` when already known, saves the recursion.
-        """
-        return self.terms(theta, s2)[:4]
-
-    def terms(self, theta: np.ndarray, s2: np.ndarray | None = None, hessian: bool = False,
-              ll: float | None = None
+    def terms(self, theta: np.ndarray, hessian: bool = False
               ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """As :meth:`full`, plus the observed information ``-d^2 loglik / d theta^2`` (k, k)
-        when `hessian` (else None). `ll`, the log-likelihood at `theta` with `s2` when already
-        known, saves its sum (numpy path; the compiled pass computes everything in one go).
+        when `hessian` (else None).
 
         With ``u_t = (1 - r_t) / sigma_t^2``, ``r_t = x_t^2 / sigma_t^2`` and ``D_t`` the
         derivatives of ``sigma_t^2``: score ``-1/2 sum u_t D_t``; the observed information is
-        ``1/2 sum [(2 r_t - 1) D_t D_t^T / sigma_t^4 + u_t d^2 sigma_t^2]``. The second
-        derivatives obey the recursion driven by ``D_{t-j}`` in the ``beta_j`` rows and columns,
-        so ``sum_t u_t d^2 sigma_t^2`` needs only the adjoint filter of u (one more filter).
+        ``1/2 sum [(2 r_t - 1) D_t D_t^T / sigma_t^4 + u_t d^2 sigma_t^2]``.
         """
-        if self.compiled:
-            s2 = np.empty_like(self.x2)
-            ll, score, info, observed = self._compiled_pass(theta, 2 if hessian else 1, s2)
-            return ll, score, info, s2, observed if hessian else None
-        omega, alpha, beta = _split(theta, self.p)
-        if s2 is None:
-            s2 = self._recent.get(theta.tobytes())
-        if s2 is None:
-            s2 = _recursion(omega, alpha, beta, self.x2, self.bc)
-        p, q = self.p, self.q
-        if self._drive is None:  # the rows of the recursion's inputs that do not depend on theta
-            self._drive = np.empty((1 + p + q, self.x2.size))
-            self._drive[0] = 1.0
-            for i in range(1, p + 1):
-                self._drive[i] = _lagged(self.x2, i, self.bc)
-        drive = self._drive  # the beta rows are rewritten in place (lfilter returns a new array)
-        for j in range(1, q + 1):
-            drive[p + j, :j] = self.bc
-            drive[p + j, j:] = s2[:-j]
-        ds2 = _derivatives(beta, drive)
-        inv = 1.0 / s2
-        ratio = self.x2 * inv
-        scaled = ds2 * inv
-        score = -0.5 * (scaled @ (1.0 - ratio))
-        info = 0.5 * (scaled @ scaled.T)
-        if ll is None:
-            ll = -0.5 * float(ratio.size * _LOG_2PI - np.sum(np.log(inv)) + np.sum(ratio))
-        observed = None
-        if hessian:
-            observed = 0.5 * ((scaled * (2.0 * ratio - 1.0)) @ scaled.T)
-            if q:
-                w = _adjoint_filter(beta, (1.0 - ratio) * inv)
-                for j in range(1, q + 1):
-                    # sum_t w_t D_{t-j}: the beta_j row and column of sum_t u_t d^2 sigma_t^2
-                    cross = 0.5 * (ds2[:, :-j] @ w[j:])
-                    observed[p + j, :] += cross
-                    observed[:, p + j] += cross
-        return ll, score, info, s2, observed
+        s2 = np.empty_like(self.x2)
+        ll, score, info, observed = self._compiled_pass(theta, 2 if hessian else 1, s2)
+        return ll, score, info, s2, observed if hessian else None
 
 
 def _grid_start(lik: _Likelihood, p: int, q: int) -> np.ndarray:
@@ -453,7 +351,7 @@ def _maximise(lik: _Likelihood, theta0: np.ndarray, max_iter: int, tol: float
             z_new, theta_new, ll_new = _extrapolate(lik, z, step, z_new, theta_new, ll_new)
         gain = ll_new - ll
         z, theta = z_new, theta_new
-        ll, score, info, s2, observed = lik.terms(theta, hessian=True, ll=ll_new)
+        ll, score, info, s2, observed = lik.terms(theta, hessian=True)
         lam = max(lam / 10.0, 1e-12)
         if predicted < tol and gain <= tol:
             return theta, it, True, (ll, info, s2)

@@ -1,17 +1,10 @@
-"""Optional compiled GARCH(p, q) pass (numba): variance, likelihood, score and information at once.
+"""Compiled GARCH(p, q) pass: variance, likelihood, score and information at once (eqs. 7-9).
 
-numba is an optional dependency (the ``fast`` extra); this module reuses the switch of
-:mod:`stochmod.core.jit`: without numba, or with ``STOCHMOD_DISABLE_JIT=1`` set before
-importing stochmod, :data:`AVAILABLE` is False and :mod:`stochmod.fit.garch` runs its
-numpy/:func:`scipy.signal.lfilter` path, which reaches the same maxima (the sums are
-accumulated in another order: the log-likelihoods agree to ~1e-12 relative).
-
-Why compiled (docs/redundant_imu.md): the numpy path needs one filter for ``sigma^2``, one for
-its ``1 + p + q`` derivatives, one backwards for the second derivatives, and a dozen
-elementwise temporaries and products, each a pass over arrays of T float64. The recursion of
-eq. 7 is sequential anyway, so one pass runs it block by block (``_BLOCK`` samples, held in
-cache) and, per block, the derivative recursions and every sum: one read of ``x^2`` per
-evaluation, nothing written unless ``sigma^2`` is asked for.
+The recursion of eq. 7 is sequential, so one pass runs it block by block (``_BLOCK`` samples,
+held in cache) and, per block, the derivative recursions and every sum: one read of ``x^2``
+per evaluation, nothing written unless ``sigma^2`` is asked for. Compiled by
+:func:`stochmod.core.jit.compiled`; with ``STOCHMOD_DISABLE_JIT=1`` the same functions run as
+plain Python.
 
 Recursions, with ``F = 1 / (1 - sum_j beta_j B^j)`` the causal filter of eq. 7 (pre-sample
 ``x^2`` and ``sigma^2`` equal to the backcast, pre-sample derivatives 0):
@@ -33,23 +26,19 @@ import numpy as np
 from stochmod.core import jit
 from stochmod.core.jit import compiled
 
-__all__ = ["AVAILABLE", "garch_pass", "prepare"]
+__all__ = ["garch_pass", "prepare", "variance_recursion"]
 
 _BLOCK = 512  # samples per block: sigma^2, D and E rows of a block stay in L1/L2
 
-#: Whether the compiled pass is available (numba importable and not disabled).
-AVAILABLE = jit.AVAILABLE
-
-
-#: ``contract`` also fuses multiply-adds (sums round differently from the numpy path's, within
-#: ~1e-14 relative); no flag that assumes finite values, so the check of each variance stays exact.
+#: ``contract`` also fuses multiply-adds; no flag that assumes finite values, so the check of
+#: each variance stays exact.
 _compile = compiled(fastmath=frozenset({"reassoc", "contract"}))
 
 
 @_compile
 def garch_pass(x2: np.ndarray, bc: float, omega: float, alpha: np.ndarray, beta: np.ndarray,
                level: int, s2_out: np.ndarray, score: np.ndarray, info: np.ndarray,
-               observed: np.ndarray) -> float:  # pragma: no cover - compiled
+               observed: np.ndarray) -> float:  # pragma: no cover
     """One pass of eq. 7 over `x2`: the Gaussian log-likelihood (nats, returned) and, by
     `level`, its score and information matrices (into the arrays given).
 
@@ -199,11 +188,28 @@ def garch_pass(x2: np.ndarray, bc: float, omega: float, alpha: np.ndarray, beta:
     return -0.5 * (n * math.log(2.0 * math.pi) + sum_log + sum_r)
 
 
+@_compile
+def variance_recursion(x2: np.ndarray, bc: float, omega: float, alpha: np.ndarray,
+                       beta: np.ndarray, s2: np.ndarray) -> None:  # pragma: no cover
+    """``s2[t] = sigma_t^2`` of eq. 7 for every t, whatever the values (a variance that
+    overflows or is not positive stays in `s2`, and so do those after it); `x2`, `bc`,
+    `omega`, `alpha` and `beta` as in :func:`garch_pass`, `s2` of the shape of `x2`."""
+    p = alpha.size
+    q = beta.size
+    for t in range(x2.size):
+        v = omega
+        for i in range(1, p + 1):
+            v += alpha[i - 1] * (x2[t - i] if t >= i else bc)
+        for j in range(1, q + 1):
+            v += beta[j - 1] * (s2[t - j] if t >= j else bc)
+        s2[t] = v
+
+
 def prepare() -> None:
     """Compile :func:`garch_pass` (or load it from numba's cache) in this process now, so that
-    processes forked afterwards inherit the machine code instead of each loading it again
-    (about 0.5 s each); nothing without numba."""
-    if AVAILABLE:
+    processes forked afterwards inherit the machine code instead of each loading it again;
+    nothing when ``STOCHMOD_DISABLE_JIT`` is set."""
+    if jit.AVAILABLE:
         k = 3
         garch_pass(np.ones(16), 1.0, 0.1, np.full(1, 0.1), np.full(1, 0.8), 2, np.empty(0),
                    np.zeros(k), np.zeros((k, k)), np.zeros((k, k)))
