@@ -20,8 +20,8 @@ over ten minutes:
   Coriolis (eq. 17c) at the middle of the interval (extrapolated from the two previous epochs).
 - Position: eq. 18 with the trapezoid of the old and new velocity.
 
-The hot loop is plain Python on floats (the ``math`` module): on 3-vectors that is several times
-faster than numpy calls (see ``bench/``).
+The hot loop is plain Python on floats (the ``math`` module): on 3-vectors a float expression
+costs less than the overhead of one numpy call.
 """
 
 from __future__ import annotations
