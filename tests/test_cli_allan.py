@@ -84,7 +84,7 @@ def test_plot_is_written(tmp_path, capsys, data):
     ("extra", "content", "match"),
     [
         ([], "1,2\n3,nan\n", "NaN"),
-        ([], "1\n2\n3\n4\n5\n6\n", "at least 8"),
+        ([], "1\n3\n2\n4\n6\n5\n", "at least 8"),
         (["--plot", "out.txt"], None, ".png"),
     ],
 )

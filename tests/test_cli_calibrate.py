@@ -216,3 +216,23 @@ def test_plots_without_matplotlib_name_the_extra(monkeypatch):
     fit = gmwm(np.random.default_rng(0).standard_normal(1024), "WN", 10.0)
     with pytest.raises(ImportError, match=r"stochmod\[plots\]"):
         plots.plot_fit(fit, n_sim=0)
+
+
+def test_freq_against_time_stamps_and_clock_columns_are_refused(tmp_path, capsys):
+    rng = np.random.default_rng(3)
+    t = np.arange(400) / 100.0
+    path = tmp_path / "imu.csv"
+    rows = ["time,gyro_x,tiem"] + [f"{a:.2f},{b:.6e},{a:.2f}"
+                                   for a, b in zip(t, 1e-3 * rng.standard_normal(t.size))]
+    path.write_text("\n".join(rows) + "\n")
+    out = str(tmp_path / "out")
+    # --freq 200 against 100 Hz time stamps
+    assert main(["calibrate", str(path), "--column", "gyro_x", "--freq", "200", "--out", out]) == 2
+    assert "--freq 200 contradicts the time stamps" in capsys.readouterr().err
+    # a misspelled time column is not modelled as a sensor unless it is named
+    assert main(["calibrate", str(path), "--out", out, "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]  # after the reader's note on the time stamps
+    assert last.startswith("stochmod calibrate: error: ") and "column 'tiem' increases" in last
+    # within 1 % of the time stamps' rate, and the column named: read as asked
+    assert main(["wv", str(path), "--column", "gyro_x", "--column", "tiem", "--freq", "100.5"]) == 0

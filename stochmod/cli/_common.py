@@ -14,8 +14,21 @@ from stochmod.core.checks import check_freq
 from stochmod.core.errors import InputError
 from stochmod.io.recording import Recording, read_recording
 
-__all__ = ["MIN_SEGMENT", "add_input_arguments", "column_replicates", "gap_free_segments",
-           "load_input", "load_segments", "longest_segment", "print_json", "to_jsonable"]
+#: Relative difference between --freq and the time stamps' rate that is a contradiction.
+FREQ_TOLERANCE = 0.01
+
+__all__ = [
+    "FREQ_TOLERANCE",
+    "MIN_SEGMENT",
+    "add_input_arguments",
+    "column_replicates",
+    "gap_free_segments",
+    "load_input",
+    "load_segments",
+    "longest_segment",
+    "print_json",
+    "to_jsonable",
+]
 
 
 def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool = True) -> None:
@@ -98,10 +111,31 @@ def _read(args: argparse.Namespace, to_si: bool, path: str | None = None
               f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
     if to_si:
         rec = rec.to_si(getattr(args, "unit", None))
+    if args.freq is not None and rec.timing is not None:
+        rate = rec.timing.rate
+        if abs(args.freq - rate) > FREQ_TOLERANCE * rate:
+            raise InputError(f"--freq {args.freq:g} contradicts the time stamps of {path} "
+                             f"({rate:.6g} Hz): drop --freq, or fix the time stamps")
+    _refuse_clock_columns(rec, args.column)
     freq = args.freq if args.freq is not None else rec.freq
     if freq is None:
         raise InputError(f"{path} does not record its sampling frequency: pass --freq HZ")
     return rec, check_freq(freq, name="--freq")
+
+
+def _refuse_clock_columns(rec: Recording, named: list[str] | None) -> None:
+    """Refuse a column that increases at every sample (a time stamp or a counter the reader did
+    not take as time), unless the user named it with ``--column``: a sensor at rest does not
+    do that, and its model would be meaningless."""
+    named = set(named or ())
+    for k, column in enumerate(rec.columns):
+        x = rec.data[:, k]
+        if column not in named and x.size > 2 and bool(np.all(np.diff(x) > 0)):
+            raise InputError(
+                f"{rec.path}: column {column!r} increases at every sample, like a time stamp or "
+                "a counter: name the time column so that the reader takes it as time (CSV: "
+                "'time', 't' or 'timestamp'), leave the column out with --column, or name it "
+                "with --column to model it anyway")
 
 
 def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recording, float]:
