@@ -62,7 +62,7 @@ BOUND = 300.0
 #: Stage 1 of :func:`search` (the flattened criterion of eq. 34) only ranks starting points
 #: for the refinement on eq. 20 itself: (tolerance, evaluation cap), looser than
 #: :data:`REFINE_TOLERANCE`, which would crawl along flat valleys of weakly identified models.
-#: Read at each call (bench/search_stage1.py varies it).
+#: Read at each call (studies/search_stage1.py varies it).
 STAGE1_TOLERANCE = (1e-8, 100)
 #: (tolerance, evaluation cap) of the refinement on eq. 20.
 REFINE_TOLERANCE = (1e-12, 2000)
