@@ -2,7 +2,7 @@
 
 The names below are the public API; everything else is reached through its subpackage
 (``stochmod.empirical``, ``stochmod.fit``, ``stochmod.nav`` ...), and plugins import
-:mod:`stochmod.plugin.sdk`. Process families come from plugins registered in the entry-point
+:mod:`stochmod.sdk`. Process families come from plugins registered in the entry-point
 group ``stochmod``: :func:`process_names` lists them, :func:`get_process` returns one, and
 ``stochmod.GM`` is ``get_process("GM")`` for every registered family.
 

@@ -176,8 +176,8 @@ class GM(Process):
         Notes
         -----
         ``beta = -log(phi) freq``, ``sigma2 = innovation_var / ((1 - phi)(1 + phi))``
-        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion ``stochmod.core.units.gm_from_discrete``
-        also uses: same errors); a phi within a few ulps of 1 carries few digits of beta.
+        (:func:`stochmod_gm.discrete.ar1_to_gm`, the conversion
+        :func:`stochmod_gm.discrete.gm_from_discrete` also uses: same errors); a phi within a few ulps of 1 carries few digits of beta.
         """
         _, _, beta, sigma2, scalar = ar1_to_gm(phi, innovation_var, freq)
         if not scalar:

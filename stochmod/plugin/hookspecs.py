@@ -1,6 +1,6 @@
 """The plugin contract: pluggy hook specifications of the ``stochmod`` project.
 
-A plugin is any module or object with functions marked ``@stochmod.hookimpl`` whose names
+A plugin is any module or object with functions marked ``@stochmod.sdk.hookimpl`` whose names
 match the specifications below. Installed plugins are found through the entry-point group
 ``stochmod`` (``[project.entry-points.stochmod]`` in a plugin's ``pyproject.toml``); the
 first-party process families register exactly that way.
