@@ -9,7 +9,8 @@ stochmod. What it finds here, by plugin point (docs/plugin_contract.md):
   :class:`ContinuousBlock`), :func:`as_generator`, the unit conversions, the closed forms of
   geometric Haar wavelet variances, the wavelet filters and the optional compiler
   (:func:`compiled`, :data:`JIT_AVAILABLE`);
-- readers (``stochmod_readers``): :class:`Reader`, :class:`Recording`, :func:`import_optional`;
+- readers (``stochmod_readers``): :class:`Reader`, :class:`Recording`, :func:`import_optional`,
+  :func:`sensor_kind`;
 - weightings (``stochmod_weightings``): :class:`Weighting`, :class:`WeightingInput`,
   :class:`WeightingMatrix`;
 - combiners (``stochmod_combiners``): :class:`CombinationResult`, :func:`as_sensor_array`,
@@ -73,6 +74,7 @@ from stochmod.core.units import (
     wn_density,
 )
 from stochmod.io.recording import Reader, Recording, import_optional
+from stochmod.io.sensors import sensor_kind
 from stochmod.plugin.hookspecs import hookimpl
 from stochmod.plugin.registry import get_process
 from stochmod.plugin.spec import model_from_spec
@@ -149,6 +151,7 @@ __all__ = [
     "Reader",
     "Recording",
     "import_optional",
+    "sensor_kind",
     # weightings
     "Weighting",
     "WeightingInput",

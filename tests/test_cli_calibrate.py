@@ -35,7 +35,7 @@ def run_json(args: list[str], capsys) -> dict:
 # ---------------------------------------------------------------- calibrate on a file
 def test_calibrate_file_writes_models_augmentation_and_figure(gm_wn_file, tmp_path, capsys):
     out = tmp_path / "out"
-    code = main(["calibrate", str(gm_wn_file), "--freq", "50", "--out", str(out), "--dt", "0.04",
+    code = main(["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--out", str(out), "--dt", "0.04",
                  "--candidates", "WN", "GM+WN", "2*GM+WN", "--n-sim", "3"])
     assert code == 0
     text = capsys.readouterr().out
@@ -65,7 +65,7 @@ def test_calibrate_file_writes_models_augmentation_and_figure(gm_wn_file, tmp_pa
 
 def test_calibrate_scale_is_equivariant(gm_wn_file, tmp_path, capsys):
     """Scaling the data by s scales every variance by s^2 (GMWM is scale equivariant)."""
-    base = ["calibrate", str(gm_wn_file), "--freq", "50", "--candidates", "GM+WN", "--no-plots",
+    base = ["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--candidates", "GM+WN", "--no-plots",
             "--json"]
     a = run_json(base + ["--out", str(tmp_path / "a")], capsys)["columns"]["0"]["model"]
     b = run_json(base + ["--out", str(tmp_path / "b"), "--scale", "3"], capsys)["columns"]["0"]["model"]
@@ -77,7 +77,7 @@ def test_calibrate_scale_is_equivariant(gm_wn_file, tmp_path, capsys):
 
 def test_calibrate_lattice_and_json_output_match_the_file(gm_wn_file, tmp_path, capsys):
     out = tmp_path / "lat"
-    printed = run_json(["calibrate", str(gm_wn_file), "--freq", "50", "--families", "GM", "WN",
+    printed = run_json(["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--families", "GM", "WN",
                         "--max-count", "GM=2", "--out", str(out), "--no-plots", "--json"], capsys)
     assert printed == json.loads((out / "calibration.json").read_text())
     ranking = printed["columns"]["0"]["ranking"]
@@ -90,7 +90,7 @@ def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys, 
     the same figure bytes as everything in this process (--jobs 1), however the figure's
     simulations are split into tasks."""
     pytest.importorskip("matplotlib")
-    base = ["calibrate", str(gm_wn_file), "--freq", "50", "--candidates", "WN", "GM+WN",
+    base = ["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--candidates", "WN", "GM+WN",
             "--n-sim", "2", "--json"]
     serial = run_json(base + ["--out", str(tmp_path / "one"), "--jobs", "1"], capsys)
     pooled = run_json(base + ["--out", str(tmp_path / "two"), "--jobs", "2"], capsys)
@@ -107,7 +107,7 @@ def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys, 
 
 # ---------------------------------------------------------------- the bundled example
 def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
-    report = run_json(["calibrate", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",
+    report = run_json(["calibrate", "--assume-si", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",
                        "--candidates", "WN", "GM+WN", "--out", str(tmp_path), "--no-plots",
                        "--json"], capsys)
     assert sorted(report["columns"]) == ["accel_x", "gyro_x"]  # JSON keys are sorted
@@ -122,15 +122,15 @@ def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
 
 
 def test_calibrate_errors_are_one_line(gm_wn_file, tmp_path, capsys):
-    assert main(["calibrate", str(tmp_path / "nope.csv"), "--freq", "10"]) == 2
+    assert main(["calibrate", "--assume-si", str(tmp_path / "nope.csv"), "--freq", "10"]) == 2
     assert "no such file" in capsys.readouterr().err
-    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--n", "100"]) == 2
+    assert main(["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--n", "100"]) == 2
     assert "bundled example only" in capsys.readouterr().err
-    assert main(["calibrate", "--freq", "50", "--out", str(tmp_path)]) == 2
+    assert main(["calibrate", "--assume-si", "--freq", "50", "--out", str(tmp_path)]) == 2
     assert "does not apply" in capsys.readouterr().err
-    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--scale", "-1"]) == 2
+    assert main(["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--scale", "-1"]) == 2
     assert "--scale" in capsys.readouterr().err
-    assert main(["calibrate", str(gm_wn_file), "--freq", "50", "--dt", "0", "--out", str(tmp_path)]) == 2
+    assert main(["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--dt", "0", "--out", str(tmp_path)]) == 2
     assert "--dt" in capsys.readouterr().err
 
 
@@ -227,10 +227,10 @@ def test_freq_against_time_stamps_and_clock_columns_are_refused(tmp_path, capsys
     path.write_text("\n".join(rows) + "\n")
     out = str(tmp_path / "out")
     # --freq 200 against 100 Hz time stamps
-    assert main(["calibrate", str(path), "--column", "gyro_x", "--freq", "200", "--out", out]) == 2
+    assert main(["calibrate", "--assume-si", str(path), "--column", "gyro_x", "--freq", "200", "--out", out]) == 2
     assert "--freq 200 contradicts the time stamps" in capsys.readouterr().err
     # a misspelled time column is not modelled as a sensor unless it is named
-    assert main(["calibrate", str(path), "--out", out, "--no-plots"]) == 2
+    assert main(["calibrate", "--assume-si", str(path), "--out", out, "--no-plots"]) == 2
     err = capsys.readouterr().err
     last = err.strip().splitlines()[-1]  # after the reader's note on the time stamps
     assert last.startswith("stochmod calibrate: error: ") and "column 'tiem' increases" in last

@@ -176,7 +176,7 @@ def test_calibrate_export_writes_the_files(tmp_path, capsys):
     path = tmp_path / "imu.npz"
     np.savez(path, gyro_x=x[:, 0], accel_x=x[:, 1], freq=FS)
     out = tmp_path / "out"
-    assert main(["calibrate", str(path), "--candidates", "WN", "WN+RW", "--no-plots",
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "WN+RW", "--no-plots",
                  "--out", str(out), "--export", "kalibr", "openvins", "pyins", "stochmod-nav"]) == 0
     text = capsys.readouterr().out
     assert "kalibr_imu.yaml" in text and "deg/sqrt(h)" in text
@@ -191,6 +191,6 @@ def test_calibrate_export_writes_the_files(tmp_path, capsys):
     assert json.loads((out / "stochmod_nav.json").read_text())["format"] == "stochmod-nav"
     # one sensor only: Kalibr needs both
     np.savez(path, gyro_x=x[:, 0], freq=FS)
-    assert main(["calibrate", str(path), "--candidates", "WN+RW", "--no-plots", "--out",
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN+RW", "--no-plots", "--out",
                  str(out), "--export", "kalibr"]) == 2
     assert "accel" in capsys.readouterr().err

@@ -154,12 +154,12 @@ def test_only_a_local_fleet_command_starts_the_process_server_early():
     pytest.importorskip("distributed")
     from stochmod.cli import _local_fleet
 
-    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers", "2"])
-    assert _local_fleet(["calibrate", "a.npz", "b.npz", "--workers=2"])
-    assert not _local_fleet(["calibrate", "a.npz", "b.npz"])  # serial
-    assert not _local_fleet(["calibrate", "a.npz", "--scheduler", "tcp://host:8786"])
+    assert _local_fleet(["calibrate", "--assume-si", "a.npz", "b.npz", "--workers", "2"])
+    assert _local_fleet(["calibrate", "--assume-si", "a.npz", "b.npz", "--workers=2"])
+    assert not _local_fleet(["calibrate", "--assume-si", "a.npz", "b.npz"])  # serial
+    assert not _local_fleet(["calibrate", "--assume-si", "a.npz", "--scheduler", "tcp://host:8786"])
     assert not _local_fleet(["combine", "a.npz", "--workers", "2"])
-    assert not _local_fleet(["calibrate", "--workers", "2", "--help"])
+    assert not _local_fleet(["calibrate", "--assume-si", "--workers", "2", "--help"])
     assert not _local_fleet([])
 
 
@@ -174,7 +174,7 @@ def test_fleet_tasks_csv_accounts_for_each_task(tmp_path, capsys, workers):
         np.savez(files[-1], gyro_x=model.simulate(2**12, rng=i), freq=FS)
     out = tmp_path / "out"
     before = time.time()
-    assert main(["calibrate", *map(str, files), "--candidates", "WN", "WN+RW", "--no-plots",
+    assert main(["calibrate", "--assume-si", *map(str, files), "--candidates", "WN", "WN+RW", "--no-plots",
                  "--out", str(out), *workers]) == 0
     capsys.readouterr()
     with open(out / "fleet_tasks.csv") as fh:

@@ -139,7 +139,7 @@ def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
         files.append(str(tmp_path / f"rep{k}.npz"))
         np.savez(files[-1], gyro_x=x, freq=FREQ)
     out = tmp_path / "cal"
-    argv = ["calibrate", *files, "--pooled", "--candidates", "WN", "GM+WN", "--out", str(out), "--json"]
+    argv = ["calibrate", "--assume-si", *files, "--pooled", "--candidates", "WN", "GM+WN", "--out", str(out), "--json"]
     assert main(argv) == 0
     report = __import__("json").loads(capsys.readouterr().out)
     assert report["replicates"]["n"] == [2**14, 2**14]
@@ -148,7 +148,7 @@ def test_calibrate_pooled_cli(tmp_path: Path, capsys) -> None:
     assert test["dof"] == ref.dof and test["pvalue"] > 0.01
     direct = stochmod.select(xs, FREQ, candidates=["WN", "GM+WN"])
     assert report["columns"]["gyro_x"]["name"] == direct.best.model.name == "GM+WN"
-    assert main(["calibrate", "--pooled", "--out", str(out)]) == 2  # no FILE: no replicates
+    assert main(["calibrate", "--assume-si", "--pooled", "--out", str(out)]) == 2  # no FILE: no replicates
     assert "--pooled needs two or more FILEs" in capsys.readouterr().err
 
 
@@ -189,7 +189,7 @@ def test_calibrate_split_gaps_pools_the_segments(tmp_path: Path, capsys) -> None
     np.savetxt(path, np.column_stack([keep / FREQ, x[keep]]), delimiter=",",
                header="time,gyro_x", comments="")
     out = tmp_path / "cal"
-    argv = ["calibrate", str(path), "--candidates", "WN", "GM+WN", "--out", str(out),
+    argv = ["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "--out", str(out),
             "--no-plots", "--json"]
     assert main(argv) == 2
     assert "--split-gaps" in capsys.readouterr().err

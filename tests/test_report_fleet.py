@@ -53,7 +53,7 @@ def test_report_is_one_self_contained_file(tmp_path, capsys):
                          .simulate(2**13, rng=s) for s in (1, 2)])
     np.savez(path, gyro_x=x[:, 0], accel_x=x[:, 1], freq=FS)
     out = tmp_path / "out"
-    assert main(["calibrate", str(path), "--candidates", "WN", "WN+RW", "--no-plots", "--n-sim",
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "WN+RW", "--no-plots", "--n-sim",
                  "4", "--out", str(out), "--report", "--export", "kalibr"]) == 0
     capsys.readouterr()
     parser = _Parsed()
@@ -84,8 +84,8 @@ def test_fleet_on_a_local_cluster_equals_the_serial_run(tmp_path, capsys):
         files.append(tmp_path / f"unit{i}.npz")
         _save(files[-1], 0.02 if i == 3 else 1e-3, seed=100 + i)  # unit3: 20x the noise
     common = ["--candidates", "WN", "WN+RW", "--no-plots"]
-    assert main(["calibrate", *map(str, files), *common, "--out", str(tmp_path / "serial")]) == 0
-    assert main(["calibrate", *map(str, files), *common, "--out", str(tmp_path / "dask"),
+    assert main(["calibrate", "--assume-si", *map(str, files), *common, "--out", str(tmp_path / "serial")]) == 0
+    assert main(["calibrate", "--assume-si", *map(str, files), *common, "--out", str(tmp_path / "dask"),
                  "--workers", "2"]) == 0
     capsys.readouterr()
     for f in files:
@@ -113,8 +113,8 @@ def test_one_file_on_two_workers_equals_the_single_file_command(tmp_path, capsys
     path = tmp_path / "imu.npz"
     np.savez(path, freq=rec.freq, **{c: rec.column(c) for c in XSENS_COLUMNS})
     common = ["--candidates", "WN", "WN+RW", "GM+WN", "--triad", "--export", "kalibr", "--no-plots"]
-    assert main(["calibrate", str(path), *common, "--out", str(tmp_path / "single")]) == 0
-    assert main(["calibrate", str(path), *common, "--out", str(tmp_path / "fleet"),
+    assert main(["calibrate", "--assume-si", str(path), *common, "--out", str(tmp_path / "single")]) == 0
+    assert main(["calibrate", "--assume-si", str(path), *common, "--out", str(tmp_path / "fleet"),
                  "--workers", "2"]) == 0
     capsys.readouterr()
     a = json.loads((tmp_path / "single" / "calibration.json").read_text())
@@ -135,8 +135,8 @@ def test_a_fleet_error_names_its_file(tmp_path, capsys, workers):
     if workers:
         pytest.importorskip("distributed")
     _save(tmp_path / "good.npz", 1e-3, seed=1)
-    np.savez(tmp_path / "flat.npz", gyro_x=np.ones(2**12), freq=FS)  # nothing to model
-    code = main(["calibrate", str(tmp_path / "good.npz"), str(tmp_path / "flat.npz"),
+    np.savez(tmp_path / "flat.npz", gyro_x=np.full(2**12, 1e-3), freq=FS)  # nothing to model
+    code = main(["calibrate", "--assume-si", str(tmp_path / "good.npz"), str(tmp_path / "flat.npz"),
                  "--candidates", "WN", "--no-plots", "--out", str(tmp_path / "out"), *workers])
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert code == 2
@@ -153,7 +153,7 @@ def test_dask_weighs_a_unit_by_its_samples(tmp_path):
     from stochmod.workflows.fleet import SerialExecutor
 
     _save(tmp_path / "u.npz", 1e-3, seed=3, n=2**14)
-    argv = ["calibrate", str(tmp_path / "u.npz")]
+    argv = ["calibrate", "--assume-si", str(tmp_path / "u.npz")]
     unit = read_unit(_parser_for(argv).parse_args(argv), SerialExecutor())
     samples = 8 * 2**14 * (2 if unit.segments[0].time is not None else 1)
     assert samples <= sizeof(unit) < samples + 1000

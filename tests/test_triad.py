@@ -130,7 +130,7 @@ def test_calibrate_triad_gives_every_axis_of_a_sensor_the_same_structure(walk_se
     path = tmp_path / "imu.npz"
     np.savez(path, freq=FS, **cols)
     out = tmp_path / "out"
-    assert main(["calibrate", str(path), "--candidates", "WN", "GM+WN", "WN+RW", "--no-plots",
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW", "--no-plots",
                  "--out", str(out), "--triad"]) == 0
     assert "summed wvic" in capsys.readouterr().out
     report = json.loads((out / "calibration.json").read_text())

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import ClassVar
 
@@ -9,6 +10,7 @@ import numpy as np
 
 from stochmod.core.errors import InputError
 from stochmod.io.recording import Reader, Recording
+from stochmod.io.sensors import sensor_kind
 from stochmod_io_text._columns import find_time_column
 
 __all__ = ["NpyReader", "NpzReader"]
@@ -54,9 +56,12 @@ def _columns(path: Path, arrays: dict[str, np.ndarray]) -> tuple[np.ndarray, tup
 class NpzReader(Reader):
     """A ``.npz`` archive: each numeric array of length n is a column (2-D arrays ``name[i]``).
 
-    A scalar ``freq`` entry is the sampling frequency in Hz; a 1-D string array ``units`` with
-    one entry per column gives the units; a time array (named by the ``time_column`` option,
-    else ``time``, ``t``, ``timestamp`` ...) gives the time stamps in s.
+    A scalar ``freq`` entry is the sampling frequency in Hz; ``units`` gives the units, as a
+    1-D string array with one entry per column or as one ``"key: unit, key: unit"`` string
+    whose keys are columns or sensor kinds (``gyro``, ``accel``); a 1-D string array
+    ``sensor`` with one entry per column gives what each measures (``"Gyroscope"``); a time
+    array (named by the ``time_column`` option, else ``time``, ``t``, ``timestamp`` ...) gives
+    the time stamps in s.
     """
 
     name: ClassVar[str] = "npz"
@@ -92,14 +97,40 @@ class NpzReader(Reader):
         data, columns = _columns(path, arrays)
         if time is not None and time.shape[0] != data.shape[0]:
             raise InputError(f"{path}: {time.shape[0]} time stamps for {data.shape[0]} samples")
-        unit_list = None
-        if (
-            units is not None
-            and units.ndim == 1
-            and units.dtype.kind == "U"
-            and len(units) == len(columns)
-        ):
-            unit_list = tuple(str(u) or None for u in units)
-        return Recording(
-            data=data, columns=columns, freq=freq, path=str(path), time=time, units=unit_list
-        )
+        kinds = _per_column(members.get("sensor"), columns)
+        unit_list = _per_column(units, columns)
+        if units is not None and units.ndim == 0 and units.dtype.kind == "U":
+            unit_list = _units_by_key(str(units), columns, kinds)
+        return Recording(data=data, columns=columns, freq=freq, path=str(path), time=time,
+                         units=unit_list, kinds=kinds)
+
+
+def _per_column(entry: np.ndarray | None, columns: tuple[str, ...]) -> tuple[str | None, ...] | None:
+    """A 1-D string array with one entry per column, else None."""
+    if entry is None or entry.ndim != 1 or entry.dtype.kind != "U" or len(entry) != len(columns):
+        return None
+    return tuple(str(u) or None for u in entry)
+
+
+def _units_by_key(text: str, columns: tuple[str, ...], kinds: tuple[str | None, ...] | None
+                  ) -> tuple[str | None, ...] | None:
+    """Units from a ``"key: unit"`` string (``"gyro: deg/s (from the LSB), accel: g"``): a key
+    is a column or a sensor kind (``gyro``/``accel``, matched against the ``sensor`` entry or
+    the column's name); the unit is the first word after the colon."""
+    by_key = {}
+    for part in _PAIRS.split(text):
+        key, sep, rest = part.partition(":")
+        words = rest.split()
+        if sep and words:
+            by_key[key.strip().lower()] = words[0]
+    if not by_key:
+        return None
+    out = []
+    for k, column in enumerate(columns):
+        hint = (kinds[k] if kinds is not None else None) or column
+        kind = sensor_kind(column, None, hint)
+        out.append(by_key.get(column.lower(), by_key.get(kind)))
+    return tuple(out) if any(out) else None
+
+
+_PAIRS = re.compile(r"[,;]")

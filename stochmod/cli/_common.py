@@ -8,11 +8,13 @@ import math
 import sys
 from typing import Any
 
+import attrs
 import numpy as np
 
 from stochmod.core.checks import check_freq
 from stochmod.core.errors import InputError
 from stochmod.io.recording import Recording, read_recording
+from stochmod.io.sensors import check_static_magnitudes, declare_units
 
 #: Relative difference between --freq and the time stamps' rate that is a contradiction.
 FREQ_TOLERANCE = 0.01
@@ -22,6 +24,7 @@ __all__ = [
     "MIN_SEGMENT",
     "add_input_arguments",
     "column_replicates",
+    "declared_recording",
     "gap_free_segments",
     "load_input",
     "load_segments",
@@ -50,9 +53,17 @@ def add_input_arguments(parser: argparse.ArgumentParser, *, file_required: bool 
                           "vehicle_imu, ...)")
     log.add_argument("--instance", type=int, default=None, metavar="K",
                      help="instance of a multi-instance ULog topic (default 0)")
-    log.add_argument("--unit", default=None, metavar="UNIT",
-                     help="unit of the data, e.g. deg/s, mg (default: the file's header); "
+    log.add_argument("--unit", action="append", default=None, metavar="[COLUMN=]UNIT",
+                     help="unit of a column (COLUMN=UNIT, repeatable) or of every column of a "
+                          "one-sensor file (UNIT), e.g. deg/s, g, mg; overrides the file's; "
                           "converted to SI (allan reports in it)")
+    log.add_argument("--gyro-unit", default=None, metavar="UNIT",
+                     help="unit of every gyro column (deg/s, rad/s, deg/h ...)")
+    log.add_argument("--accel-unit", default=None, metavar="UNIT",
+                     help="unit of every accelerometer column (g, mg, m/s^2 ...)")
+    log.add_argument("--assume-si", action="store_true",
+                     help="take rad/s and m/s^2 for gyro and accelerometer columns of unknown "
+                          "unit (recorded as assumed); without it calibrate refuses them")
     log.add_argument("--split-gaps", action="store_true",
                      help="accept gaps in the time stamps: calibrate, select, fit and wv pool "
                           "the wavelet variances of the gap-free segments, the other "
@@ -109,8 +120,12 @@ def _read(args: argparse.Namespace, to_si: bool, path: str | None = None
         t = rec.timing
         print(f"{path}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "
               f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
+    calibrating = getattr(args, "require_units", False)  # the main job: units, magnitudes
+    rec = declared_recording(rec, args, required=calibrating)
     if to_si:
-        rec = rec.to_si(getattr(args, "unit", None))
+        rec = rec.to_si()
+        if calibrating:
+            check_static_magnitudes(rec.data, rec.declared)
     if args.freq is not None and rec.timing is not None:
         rate = rec.timing.rate
         if abs(args.freq - rate) > FREQ_TOLERANCE * rate:
@@ -136,6 +151,18 @@ def _refuse_clock_columns(rec: Recording, named: list[str] | None) -> None:
                 "a counter: name the time column so that the reader takes it as time (CSV: "
                 "'time', 't' or 'timestamp'), leave the column out with --column, or name it "
                 "with --column to model it anyway")
+
+
+def declared_recording(rec: Recording, args: argparse.Namespace, *, required: bool
+                       ) -> Recording:
+    """`rec` with each column's declared kind and unit (:func:`stochmod.io.sensors.declare_units`
+    from the file and ``--unit``, ``--gyro-unit``, ``--accel-unit``, ``--assume-si``): its
+    :attr:`~stochmod.io.recording.Recording.units` are the declared ones."""
+    declared = declare_units(rec.columns, rec.units, rec.kinds, unit=getattr(args, "unit", None),
+                             gyro_unit=getattr(args, "gyro_unit", None),
+                             accel_unit=getattr(args, "accel_unit", None),
+                             assume_si=getattr(args, "assume_si", False), required=required)
+    return attrs.evolve(rec, units=tuple(c.unit for c in declared), declared=declared)
 
 
 def load_input(args: argparse.Namespace, *, to_si: bool = True) -> tuple[Recording, float]:

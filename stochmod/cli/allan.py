@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
         x = rec.data[:, k]
         table = avar(x, freq, taus=args.taus, kind=args.kind, alpha=args.alpha)
         reading = allan_reading(x, freq, kind=reading_kind, alpha=args.alpha,
-                                unit=args.unit or units[k])
+                                unit=units[k])
         results[name] = (table, reading)
     if args.plot:
         plot_reading({n: r for n, (_, r) in results.items()}, args.plot,

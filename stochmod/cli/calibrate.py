@@ -17,8 +17,8 @@ import numpy as np
 
 from stochmod.cli import FLEET_WARM_MODULE
 from stochmod.cli import _calibrate_outputs as extras
-from stochmod.cli._common import (add_input_arguments, column_replicates, load_segments,
-                                  longest_segment, print_json, to_jsonable)
+from stochmod.cli._common import (add_input_arguments, column_replicates, declared_recording,
+                                  load_segments, longest_segment, print_json, to_jsonable)
 from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
 from stochmod.output.datasheet import datasheet_reading
 from stochmod.core.errors import EstimationError, InputError
@@ -31,6 +31,7 @@ from stochmod.core.model import augment_axes
 from stochmod.core.tables import format_table
 from stochmod.empirical.allan_reading import AllanReading
 from stochmod.core.statespace import StateSpaceBlock
+from stochmod.core.units import SENSORS
 
 __all__ = ["register", "run", "calibrate_file", "calibration_report", "SIMULATIONS_PER_TASK",
            "UnitInput", "ColumnResult", "UNIT_STEPS", "calibrate_unit", "read_unit",
@@ -77,19 +78,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="FILE FILE ...: replicates of one sensor model; fit one model per column "
                         "from their pooled wavelet variance, and test whether they share it "
                         "(without it, several FILEs are a fleet: one calibration each)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, require_units=True)
 
 
 def _input(args: argparse.Namespace) -> tuple[list[Recording], float]:
     """The recording's gap-free segments (one without gaps, several with ``--split-gaps``)."""
     if args.file is None:
         # reader options (stochmod.cli._common) apply to files only
-        given = [f"--{o.replace('_', '-')}" for o in ("reader", "topic", "instance", "unit")
+        given = [f"--{o.replace('_', '-')}" for o in ("reader", "topic", "instance", "unit",
+                                                       "gyro_unit", "accel_unit")
                  if getattr(args, o) is not None] + (["--split-gaps"] if args.split_gaps else [])
         if given:
             verb = "applies" if len(given) == 1 else "apply"
             raise InputError(f"{', '.join(given)} {verb} to a FILE, not to the bundled example")
-        rec = xsens_mtig(n=args.n).select(args.column)
+        rec = declared_recording(xsens_mtig(n=args.n).select(args.column), args, required=True)
         if args.freq is not None and args.freq != rec.freq:
             raise InputError(f"--freq {args.freq:g} does not apply to the bundled example ({rec.freq:g} Hz)")
         return [rec], float(rec.freq)
@@ -411,8 +413,12 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
 
 
 def _sensor_units(args: argparse.Namespace, segments: list[Recording]) -> dict[str, str] | None:
-    """The columns' sensor units (None when unknown and not needed; an error when
-    ``--triad``, ``--export`` or ``--report`` needs them)."""
+    """The columns' SI signal units: from their declared sensor kinds, else ``--sensor`` or the
+    column names (None when unknown and not needed; an error when ``--triad``, ``--export`` or
+    ``--report`` needs them)."""
+    declared = segments[0].declared
+    if declared and args.sensor is None and all(c.kind in SENSORS for c in declared):
+        return {c.column: SENSORS[c.kind] for c in declared}
     return extras.column_units(list(segments[0].columns), args,
                                required=bool(args.triad or args.export or args.report))
 
@@ -442,7 +448,9 @@ def _outputs(args: argparse.Namespace, segments: list[Recording], freq: float, d
         report["segments"] = [{"start": float(r.time[0]), "n": int(r.data.shape[0])}
                               for r in segments]
     report["units"] = {"signal": sensor_units, "note": "parameters: canonical per-sample values "
-                       "in the signal unit u (see physical for SI, datasheet for datasheet units)"}
+                       "in the signal unit u (see physical for SI, datasheet for datasheet units)",
+                       "declared": None if rec.declared is None else
+                       {c.column: c.to_dict() for c in rec.declared}}
     report["datasheet"] = {c: d.to_dict() for c, d in sheets.items()}
     report["triads"] = [t.to_dict() for t in triads]
     path = out / "calibration.json"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from stochmod.cli._common import add_input_arguments, print_json
+from stochmod.cli._common import add_input_arguments, declared_recording, print_json
 from stochmod.io.recording import read_recording
 from stochmod.plugin.registry import readers
 from stochmod.core.tables import format_table
@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         topic=args.topic,
         instance=args.instance,
     )
-    rec = rec.to_si(args.unit) if args.unit else rec
+    if args.unit or args.gyro_unit or args.accel_unit:  # shown in SI, as the estimators read it
+        rec = declared_recording(rec, args, required=False).to_si()
     if args.json:
         t = rec.timing
         print_json(

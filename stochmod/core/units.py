@@ -50,6 +50,7 @@ __all__ = [
     "SENSORS",
     "sensor_unit",
     "signal_unit",
+    "kind_from_name",
     "si_unit_of",
     "STANDARD_GRAVITY",
     "DEG",
@@ -639,6 +640,16 @@ def sensor_unit(sensor: str) -> str:
                      f"got {sensor!r}")
 
 
+def kind_from_name(column: str) -> str | None:
+    """The sensor kind a column's name tells (``gyro_x``, ``omega_z`` -> ``"gyro"``;
+    ``accel_y``, ``acc_z`` -> ``"accel"``), or None."""
+    low = column.lower()
+    for kind, hints in _NAME_HINTS:
+        if any(h in low for h in hints):
+            return kind
+    return None
+
+
 def signal_unit(column: str, sensor: str | None = None) -> str:
     """SI unit of a column: from `sensor` when given, else from the column's name
     (``gyro_x``, ``omega_z`` -> rad/s; ``accel_y``, ``acc_z`` -> m/s^2).
@@ -650,10 +661,9 @@ def signal_unit(column: str, sensor: str | None = None) -> str:
     """
     if sensor is not None:
         return sensor_unit(sensor)
-    low = column.lower()
-    for kind, hints in _NAME_HINTS:
-        if any(h in low for h in hints):
-            return SENSORS[kind]
+    kind = kind_from_name(column)
+    if kind is not None:
+        return SENSORS[kind]
     raise InputError(f"cannot tell whether column {column!r} is a gyroscope or an accelerometer "
                      "from its name: give the sensor kind ('gyro' or 'accel')")
 

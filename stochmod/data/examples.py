@@ -122,6 +122,7 @@ def xsens_mtig(n: int = DEFAULT_EXAMPLE_N, seed: int = 2014, *, freq: float = 10
     data = np.column_stack([models[c].simulate(n, g) for c, g in zip(XSENS_COLUMNS, children)])
     hours = n / freq / 3600.0
     return Recording(data=data, columns=XSENS_COLUMNS, freq=float(freq),
+                     units=tuple(XSENS_UNITS[c] for c in XSENS_COLUMNS),
                      path=f"<bundled example: XSens MTi-G, Stebler et al. 2014 Table II, "
                           f"{n} samples = {hours:.2f} h at {freq:g} Hz, seed {seed}>")
 

@@ -19,6 +19,7 @@ import importlib
 import zipfile
 from pathlib import Path
 from types import ModuleType
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import attrs
@@ -28,6 +29,7 @@ from stochmod.core.checks import as_signals
 from stochmod.core.errors import InputError, StochmodError
 from stochmod.plugin.registry import readers
 from stochmod.core.tables import format_table
+from stochmod.io.sensors import ColumnUnit
 from stochmod.io.timing import DEFAULT_GAP_FACTOR, TimingReport, analyse_timing
 from stochmod.core.units import parse_unit
 
@@ -61,6 +63,12 @@ class Recording:
         Time stamp of each sample, s after :attr:`time_origin`, where the file has them.
     units : tuple of (str or None), or None
         Unit of each column (e.g. ``"deg/s"``; None where unknown), where the file says.
+    kinds : tuple of (str or None), or None
+        What each column measures, where the file says (``"Gyroscope"``, ``"gyro"``,
+        ``"accel"``; :func:`stochmod.io.sensors.sensor_kind` reads it).
+    declared : tuple of ColumnUnit, or None
+        Each column's kind, unit and where the unit comes from, once declared
+        (:func:`stochmod.io.sensors.declare_units`); :meth:`to_si` keeps the declaration.
     timing : TimingReport or None
         Rate, gaps and jitter found in :attr:`time` (set by :func:`read_recording`).
     time_origin : float
@@ -76,6 +84,8 @@ class Recording:
     units: tuple[str | None, ...] | None = attrs.field(default=None, converter=_tuple_or_none)
     timing: TimingReport | None = None
     time_origin: float = 0.0
+    kinds: tuple[str | None, ...] | None = attrs.field(default=None, converter=_tuple_or_none)
+    declared: tuple[ColumnUnit, ...] | None = None
 
     def __attrs_post_init__(self) -> None:
         n, k = np.shape(self.data)[0], len(self.columns)
@@ -85,6 +95,9 @@ class Recording:
             )
         if self.units is not None and len(self.units) != k:
             raise InputError(f"{self.path or 'recording'}: {len(self.units)} units for {k} columns")
+        if self.kinds is not None and len(self.kinds) != k:
+            raise InputError(f"{self.path or 'recording'}: {len(self.kinds)} sensor kinds for "
+                             f"{k} columns")
 
     def column(self, key: str | int) -> np.ndarray:
         """Return one column by name or by 0-based index."""
@@ -114,9 +127,11 @@ class Recording:
             return self
         idx = [self.column_index(k) for k in keys]
         units = None if self.units is None else tuple(self.units[i] for i in idx)
-        return attrs.evolve(
-            self, data=self.data[:, idx], columns=tuple(self.columns[i] for i in idx), units=units
-        )
+        kinds = None if self.kinds is None else tuple(self.kinds[i] for i in idx)
+        declared = None if self.declared is None else tuple(self.declared[i] for i in idx)
+        return attrs.evolve(self, data=self.data[:, idx],
+                            columns=tuple(self.columns[i] for i in idx), units=units, kinds=kinds,
+                            declared=declared)
 
     def summary(self) -> str:
         """Columns with units and ranges, the sampling rate, and the time-stamp report."""
@@ -136,15 +151,15 @@ class Recording:
         """Column name -> unit, for the columns whose unit is known."""
         return {c: u for c, u in zip(self.columns, self.units or ()) if u}
 
-    def to_si(self, unit: str | None = None) -> Recording:
+    def to_si(self, unit: str | Mapping[str, str] | None = None) -> Recording:
         """Return the recording with every column of known unit converted to SI.
 
         Parameters
         ----------
-        unit : str, optional
-            The unit of every column (e.g. ``"deg/s"``, ``"mg"``), overriding the file's.
-            Without it the units read from the file are used; columns of unknown unit are
-            left as they are.
+        unit : str or mapping of str to str, optional
+            The unit of every column (e.g. ``"deg/s"``, ``"mg"``), or column -> unit,
+            overriding the file's. Without it the units read from the file are used; columns
+            of unknown unit are left as they are.
 
         Returns
         -------
@@ -157,11 +172,11 @@ class Recording:
         InputError
             A unit that does not parse.
         """
-        given = (
-            [unit] * len(self.columns)
-            if unit is not None
-            else list(self.units or [None] * len(self.columns))
-        )
+        given = list(self.units or [None] * len(self.columns))
+        if isinstance(unit, str):
+            given = [unit] * len(self.columns)
+        elif unit is not None:
+            given = [unit.get(c, u) for c, u in zip(self.columns, given)]
         parsed = []
         for column, u in zip(self.columns, given):
             try:
