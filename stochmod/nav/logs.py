@@ -16,8 +16,14 @@ Increments are over the interval that ENDS at ``time``. GNSS file::
     time, lat, lon, height[, vn, ve, vd][, sd_n, sd_e, sd_d]      # s, deg, deg, m, m/s, m
 
 with ellipsoidal height; velocity (NED) and the position standard deviations (NED) are used
-when present, and come as complete triples. The readers return the records the filter
-takes (:class:`stochmod.nav.records.ImuData`, :class:`~stochmod.nav.records.GnssData`).
+when present, and come as complete triples. A header cell may give a column's unit
+(``gyro_x [deg/s]``, ``accel_z [g]``, ``lat [rad]``, ``height [mm]``): it is converted to the
+unit above, and one of another dimension is refused. The magnitudes are checked as a vehicle
+shows them: a median specific force near g and a median rate below 1 rad/s (accelerometers in
+g or gyros in deg/s read as SI are named), heights below 100 km, and fixes that move as far as
+the GNSS velocity says when it is given (latitudes and longitudes in radians are named). The
+readers return the records the filter takes (:class:`stochmod.nav.records.ImuData`,
+:class:`~stochmod.nav.records.GnssData`).
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ import numpy as np
 
 from stochmod.core.errors import InputError, StochmodError
 from stochmod.core.model import Model
+from stochmod.core.units import STANDARD_GRAVITY, parse_unit
 from stochmod.plugin.spec import model_from_spec
 from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
@@ -65,10 +72,37 @@ def _read_table(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
     if repeated:
         raise InputError(f"{path}: column(s) {repeated} appear more than once "
                          "(names are case-insensitive)")
-    table = {k: rec.data[:, i] for i, k in enumerate(keys)}
+    units = rec.units or (None,) * len(keys)
+    table = {k: _in_file_unit(path, k, rec.data[:, i], u)
+             for i, (k, u) in enumerate(zip(keys, units))}
     if rec.time is not None:
         table = {"time": rec.time + rec.time_origin, **table}
     return path, table
+
+
+#: Dimension and unit each column is read in: a header unit (``gyro_x [deg/s]``) of that
+#: dimension is converted to it, one of another dimension is refused.
+_COLUMN_UNITS: dict[str, tuple[str, str]] = {
+    **{f"gyro_{a}": ("rate", "rad/s") for a in "xyz"},
+    **{f"accel_{a}": ("acceleration", "m/s^2") for a in "xyz"},
+    **{f"dtheta_{a}": ("angle", "rad") for a in "xyz"},
+    **{f"dv_{a}": ("velocity", "m/s") for a in "xyz"},
+    "lat": ("angle", "deg"), "lon": ("angle", "deg"), "height": ("length", "m"),
+    **{f"v{a}": ("velocity", "m/s") for a in "ned"},
+    **{f"sd_{a}": ("length", "m") for a in "ned"},
+}
+
+
+def _in_file_unit(path: Path, key: str, values: np.ndarray, unit: str | None) -> np.ndarray:
+    """`values` of column `key` in the unit the filter reads it in, from its header `unit`."""
+    if unit is None or key not in _COLUMN_UNITS:
+        return values
+    dimension, target = _COLUMN_UNITS[key]
+    parsed = parse_unit(unit)
+    if parsed.kind != dimension:
+        raise InputError(f"{path}: column {key!r} is read as {dimension} ({target}), but its "
+                         f"header gives the unit {unit!r}")
+    return values * (parsed.scale / parse_unit(target).scale)
 
 
 def _check_columns(path: Path, table: dict[str, np.ndarray], allowed: tuple[str, ...]) -> None:
@@ -155,7 +189,35 @@ def read_imu_csv(path: str | Path) -> ImuData:
     time = _time(path, table)
     gyro = _triple(path, table, cols[1:4], required=True)
     accel = _triple(path, table, cols[4:7], required=True)
+    if kind == "increment":  # the magnitudes of the rates they integrate
+        step = np.diff(time, prepend=2 * time[0] - time[1])[:, None]
+        _check_imu_magnitudes(path, gyro / step, accel / step, "increments")
+    else:
+        _check_imu_magnitudes(path, gyro, accel, "rates")
     return ImuData(time=time, gyro=gyro, accel=accel, kind=kind)  # type: ignore[arg-type]
+
+
+#: A vehicle's median angular rate stays below this, rad/s (57 deg/s).
+NAV_RATE_LIMIT = 1.0
+
+
+def _check_imu_magnitudes(path: Path, rate: np.ndarray, force: np.ndarray, layout: str) -> None:
+    """Refuse an IMU log whose magnitudes betray a unit other than rad/s and m/s^2: the median
+    specific force of a vehicle is near g (it rests or moves at fractions of g), its median
+    rate far below 1 rad/s."""
+    g = STANDARD_GRAVITY
+    f = float(np.median(np.linalg.norm(force, axis=1)))
+    if not 0.5 * g <= f <= 1.5 * g:
+        likely = "g" if 0.5 <= f <= 1.5 else "mg" if 500 <= f <= 1500 else None
+        hint = (f"the accelerometers look like {likely}: give the unit in the header "
+                f"(accel_x [{likely}])" if likely else "check the accelerometers' unit")
+        raise InputError(f"{path}: the median specific force of the {layout} is {f:.4g} m/s^2, "
+                         f"not near g = {g} m/s^2: {hint}")
+    w = float(np.median(np.linalg.norm(rate, axis=1)))
+    if w > NAV_RATE_LIMIT:
+        raise InputError(f"{path}: the median angular rate of the {layout} is {w:.3g} rad/s, "
+                         f"above {NAV_RATE_LIMIT} rad/s: the gyros look like deg/s; give the "
+                         "unit in the header (gyro_x [deg/s])")
 
 
 def read_gnss_csv(path: str | Path) -> GnssData:
@@ -192,8 +254,19 @@ def read_gnss_csv(path: str | Path) -> GnssData:
             f"{float(lat[outside[0]])}"
         )
     lon = _column(path, table, "lon")
+    if np.any(np.abs(lon) > 360.0):
+        row = int(np.flatnonzero(np.abs(lon) > 360.0)[0])
+        raise InputError(f"{path}: lon must be in [-180, 360] deg; data row {row + 1} has "
+                         f"{float(lon[row])}")
     height = _column(path, table, "height")
+    if np.any(np.abs(height) > HEIGHT_LIMIT):
+        row = int(np.flatnonzero(np.abs(height) > HEIGHT_LIMIT)[0])
+        raise InputError(f"{path}: height {float(height[row])} m in data row {row + 1} is beyond "
+                         f"{HEIGHT_LIMIT:g} m: is it in mm? give the unit in the header "
+                         "(height [mm])")
     vel = _triple(path, table, GNSS_COLUMNS["velocity"], required=False)
+    if vel is not None:
+        _check_positions_against_velocity(path, time, lat, lon, vel)
     sd = _triple(path, table, GNSS_COLUMNS["sd"], required=False)
     if sd is not None and np.any(sd <= 0):
         row, col = np.argwhere(sd <= 0)[0]
@@ -202,6 +275,30 @@ def read_gnss_csv(path: str | Path) -> GnssData:
             f"{float(sd[row, col])}"
         )
     return GnssData(time=time, lat=lat, lon=lon, height=height, vel_ned=vel, sd=sd)
+
+
+#: Largest ellipsoidal height of a GNSS fix taken as metres.
+HEIGHT_LIMIT = 1e5
+
+
+def _check_positions_against_velocity(path: Path, time: np.ndarray, lat: np.ndarray,
+                                      lon: np.ndarray, vel: np.ndarray) -> None:
+    """Refuse latitudes and longitudes in radians: the distance between fixes, read in degrees,
+    must match the GNSS velocity over the same interval (where the vehicle moves)."""
+    radius = 6.371e6
+    dlat = np.radians(np.diff(lat))
+    dlon = np.radians(np.diff(lon)) * np.cos(np.radians(lat[1:]))
+    moved = radius * np.hypot(dlat, dlon)
+    speed = np.hypot(vel[1:, 0] + vel[:-1, 0], vel[1:, 1] + vel[:-1, 1]) / 2.0
+    step = np.diff(time)
+    moving = speed * step > 1.0  # at least a metre between fixes by the velocity
+    if np.count_nonzero(moving) < 5:
+        return
+    ratio = float(np.median(moved[moving] / (speed[moving] * step[moving])))
+    if ratio < 0.1:
+        raise InputError(f"{path}: the fixes move {ratio:.3g} times as far as the GNSS velocity "
+                         "says (lat/lon read in degrees): lat and lon look like radians; give "
+                         "them in degrees or with their unit in the header (lat [rad])")
 
 
 def read_calibration(path: str | Path) -> dict[str, Model]:

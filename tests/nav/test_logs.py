@@ -32,12 +32,13 @@ def _write(path: Path, header: list[str], columns: list[np.ndarray]) -> Path:
     ],
 )
 def test_imu_layouts_round_trip(tmp_path: Path, names: list[str], kind: str) -> None:
-    path = _write(tmp_path / "imu.csv", names, [TIME, *GYRO.T, *ACCEL.T])
+    step = 0.01 if kind == "increment" else 1.0  # increments over the 10 ms sample interval
+    path = _write(tmp_path / "imu.csv", names, [TIME, *(step * GYRO.T), *(step * ACCEL.T)])
     imu = read_imu_csv(path)
     assert imu.kind == kind
     np.testing.assert_array_equal(imu.time, TIME)
-    np.testing.assert_array_equal(imu.gyro, GYRO)
-    np.testing.assert_array_equal(imu.accel, ACCEL)
+    np.testing.assert_array_equal(imu.gyro, step * GYRO)
+    np.testing.assert_array_equal(imu.accel, step * ACCEL)
 
 
 def test_imu_columns_in_any_order(tmp_path: Path) -> None:
@@ -136,3 +137,46 @@ def test_gnss_bad_files(tmp_path: Path, header: list[str], edit, message: str) -
     cols = [np.arange(6.0), np.full(6, 45.0), np.full(6, 7.0), np.full(6, 300.0),
             np.ones(6), np.ones(6), np.ones(6)][: len(header)]
     _assert_rejected(read_gnss_csv, tmp_path / "gnss.csv", header, cols, edit, message)
+
+
+def test_header_units_are_converted_and_wrong_dimensions_refused(tmp_path: Path) -> None:
+    header = ["time", "gyro_x [deg/s]", "gyro_y [deg/s]", "gyro_z [deg/s]", "accel_x [g]",
+              "accel_y [g]", "accel_z [g]"]
+    deg = 180.0 / np.pi
+    imu = read_imu_csv(_write(tmp_path / "imu.csv", header,
+                              [TIME, *(deg * GYRO.T), *(ACCEL.T / 9.80665)]))
+    np.testing.assert_allclose(imu.gyro, GYRO, rtol=1e-12)
+    np.testing.assert_allclose(imu.accel, ACCEL, rtol=1e-12)
+    bad = ["time", "gyro_x [mg]", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+    with pytest.raises(InputError, match=r"'gyro_x' is read as rate \(rad/s\).*'mg'"):
+        read_imu_csv(_write(tmp_path / "bad.csv", bad, [TIME, *GYRO.T, *ACCEL.T]))
+
+
+@pytest.mark.parametrize(("gyro", "accel", "match"), [
+    (1.0, 1 / 9.80665, r"look like g: .*accel_x \[g\]"),
+    (1.0, 1000 / 9.80665, "look like mg"),
+    (180 / np.pi * 20, 1.0, "gyros look like deg/s"),
+])
+def test_imu_magnitudes_name_the_likely_unit(tmp_path: Path, gyro, accel, match) -> None:
+    names = ["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+    path = _write(tmp_path / "imu.csv", names, [TIME, *(gyro * GYRO.T), *(accel * ACCEL.T)])
+    with pytest.raises(InputError, match=match):
+        read_imu_csv(path)
+
+
+def test_gnss_in_radians_or_millimetres_is_refused(tmp_path: Path) -> None:
+    t = np.arange(30.0)
+    lat = 47.0 + t * 10.0 / 111_195.0  # 10 m/s north
+    lon = np.full_like(t, 8.0)
+    vel = [np.full_like(t, 10.0), np.zeros_like(t), np.zeros_like(t)]
+    names = ["time", "lat", "lon", "height", "vn", "ve", "vd"]
+    ok = read_gnss_csv(_write(tmp_path / "g.csv", names, [t, lat, lon, np.full_like(t, 400.0), *vel]))
+    np.testing.assert_allclose(ok.lat, lat)
+    with pytest.raises(InputError, match="look like radians"):
+        read_gnss_csv(_write(tmp_path / "r.csv", names,
+                             [t, np.radians(lat), np.radians(lon), np.full_like(t, 400.0), *vel]))
+    with pytest.raises(InputError, match=r"is it in mm\?"):
+        read_gnss_csv(_write(tmp_path / "h.csv", names, [t, lat, lon, np.full_like(t, 4e5), *vel]))
+    rad = read_gnss_csv(_write(tmp_path / "u.csv", ["time", "lat [rad]", "lon [rad]", "height"],
+                               [t, np.radians(lat), np.radians(lon), np.full_like(t, 400.0)]))
+    np.testing.assert_allclose(rad.lat, lat, rtol=1e-12)  # the header's unit converts them
