@@ -1,7 +1,7 @@
 """Speed of an outage study: R emulated 10-minute drives (100 Hz IMU, 1 Hz GNSS, three 60 s
-outages) x 3 filters (the Stebler Table III set of bench/study_xsens.py: white noise, slowest
+outages) x 3 filters (the Stebler Table III set of studies/study_xsens.py: white noise, slowest
 GM + WN, the complete 24-state true model of the simulated XSens MTi-G), spread over worker
-processes, against the issue's goal (100 x 3 in under 10 minutes on this 2-core machine).
+processes, against the goal (100 x 3 in under 10 minutes on this 2-core machine).
 
 The reference in the same run is the configuration before the process pool and the
 once-per-GNSS-interval covariance step: serial, covariance step 0.1 s, timed on a few runs and
@@ -20,6 +20,9 @@ import os
 import resource
 import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 
 from study_xsens import _slowest_gm_and_wn
 

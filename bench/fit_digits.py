@@ -19,12 +19,17 @@ from __future__ import annotations
 import json
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 from bench_gmwm import FREQ, simulated
 from bench_select import CANDIDATES
 
+# the Monte Carlo cases of the GMWM study are part of the digits checked
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+
 import mc_gmwm
+
 import stochmod
 from stochmod.fit.gmwm import gmwm
 from stochmod.fit.selection import select

@@ -1,7 +1,7 @@
 """The numbers of docs/comparison.md: classical methods vs GMWM on one real recording.
 
-    python bench/compare_methods.py                    # real data (../shared/data), ~1 min
-    python bench/compare_methods.py --monte-carlo 100  # the simulations behind the test tolerances
+    python studies/compare_methods.py                    # real data (../shared/data), ~1 min
+    python studies/compare_methods.py --monte-carlo 100  # the simulations behind the test tolerances
 
 Real data: ADIS16405 imu1 (`../shared/data/imudata/adis_16405_imu1.npz`), Gyro_X (deg/s ->
 rad/s) and Accel_X (g -> m/s^2), mean removed, 100 Hz. For each column it runs the Allan (AV),
@@ -133,7 +133,7 @@ def real(data: Path) -> None:
     if not path.exists():
         sys.exit(f"{path} not found: pass --data DIR (the folder holding adis_16405_imu1.npz)")
     rec = np.load(path)
-    print(f"# bench/compare_methods.py, {datetime.date.today().isoformat()}, stochmod "
+    print(f"# studies/compare_methods.py, {datetime.date.today().isoformat()}, stochmod "
           f"{sm.__version__}, numpy {np.__version__}")
     gx = np.deg2rad(rec["Gyro_X"])
     ax = rec["Accel_X"] * STANDARD_GRAVITY

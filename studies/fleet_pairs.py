@@ -1,6 +1,6 @@
 """Does this machine run two processes as fast as one? The ceiling of a fleet's scaling.
 
-Run: ``python bench/fleet_pairs.py [--repeats 5]``. Each probe runs in a fresh process pinned
+Run: ``python studies/fleet_pairs.py [--repeats 5]``. Each probe runs in a fresh process pinned
 to one core, alone (core 0) and as a pair at once (cores 0 and 1), the two kinds interleaved
 `repeats` times; printed are the median CPU time of a probe alone and in a pair (each
 process's, and the slower one's), and the ratio pair / alone: how much a second busy process

@@ -15,8 +15,8 @@ below are written.
 Run (deterministic: simulation r of a case uses ``SeedSequence(SEED, spawn_key=(case.seed_key, r))``,
 gmwm its default ``rng=0``)::
 
-    python bench/mc_gmwm.py                       # all models, default R, 2 workers
-    python bench/mc_gmwm.py --only 2GM+WN --reps 20 --out /tmp/mc.md
+    python studies/mc_gmwm.py                       # all models, default R, 2 workers
+    python studies/mc_gmwm.py --only 2GM+WN --reps 20 --out /tmp/mc.md
 
 Run time with the default settings: about 16 min wall clock with 2 workers on the 2-core
 machine; the AR(2) fits take half of it (their Jacobian is numerical: ~5 s per fit). Reruns give identical tables (only the times change). The
@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> None:
         sections = [summarise(c, [f.result() for f in fs]) for c, fs in zip(chosen, futures)]
     elapsed = time.perf_counter() - t_start
     text = "\n\n".join([
-        f"Command: `{shlex.join(['python', 'bench/mc_gmwm.py', *(argv or [])])}`, "
+        f"Command: `{shlex.join(['python', 'studies/mc_gmwm.py', *(argv or [])])}`, "
         f"{datetime.date.today().isoformat()}, stochmod {stochmod.__version__}, "
         f"{args.workers} workers, total {elapsed / 60:.1f} min wall clock.",
         *sections,

@@ -1,6 +1,6 @@
 """Monte Carlo: the size of the J-test on a GMWM fit of pooled replicates.
 
-Run: ``python bench/mc_pooled_jtest.py [PAIRS [N [CASE]]]`` (defaults 100 pairs of 2^15
+Run: ``python studies/mc_pooled_jtest.py [PAIRS [N [CASE]]]`` (defaults 100 pairs of 2^15
 samples, both cases). Each pair is two replicates simulated from one GM + WN model at 100 Hz
 (case "fast": the model of tests/test_pooled.py; case "slow": a slow GM whose WV still rises at
 the deep levels, where the pooled WV has twice the coefficients of each replicate) and fitted

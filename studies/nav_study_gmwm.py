@@ -1,6 +1,6 @@
-"""Stebler Table III in shape with GMWM refits (issue 10): the filters' error models are fitted
+"""Stebler Table III in shape with GMWM refits: the filters' error models are fitted
 by the GMWM to an emulated static record, as in Stebler et al. (2014) Section VI, instead of
-being sub-models of the truth (bench/study_xsens.py).
+being sub-models of the truth (studies/study_xsens.py).
 
 The truth is the simulated XSens MTi-G of stochmod.data.examples (Table II, "driving" reading:
 gyros GM + GM + WN, accelerometers GM + GM + GM + WN). Its static record
@@ -16,7 +16,7 @@ navigates with the three fitted ones and with the true models themselves (the re
 The filters are told the record's length (5243 s), so a fitted Gauss-Markov component whose
 correlation time lies beyond it enters them as the random walk it is over the record
 (``outage_study(record=)``, stochmod.fit.equivalence); ``--no-record`` takes the fits as they are
-(the degenerate full fit then navigates at kilometres). Run ``python bench/nav_study_gmwm.py
+(the degenerate full fit then navigates at kilometres). Run ``python studies/nav_study_gmwm.py
 [--runs R] [--workers N] [--dt-filter S] [--no-record]``; the table is quoted in
 docs/outages.md.
 """

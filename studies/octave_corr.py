@@ -14,7 +14,7 @@ r = 0, a constant correlation 0.3 at every distance). A rate ramp is
 deterministic within a record (its AV has no sampling error of its own): the white noise
 around it makes the error, so R takes N's value.
 
-Run: ``python bench/octave_corr.py [--reps 400] [--n 65536] [--seed 2024]`` (about a minute).
+Run: ``python studies/octave_corr.py [--reps 400] [--n 65536] [--seed 2024]`` (about a minute).
 Its output is the dictionary to paste, and the per-distance correlations behind it.
 """
 

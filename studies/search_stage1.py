@@ -6,7 +6,7 @@ the refinement's own settings (1e-12, 2000 evaluations), and prints, per model, 
 capped search ends at a worse objective (relative 1e-6) and the time of each variant.
 The numbers quoted in docs/gmwm.md ("Starting values and multi-start") come from this script.
 
-Run: ``python bench/search_stage1.py``.
+Run: ``python studies/search_stage1.py``.
 """
 
 from __future__ import annotations

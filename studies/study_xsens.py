@@ -11,7 +11,7 @@ Unlike Stebler, models 1 and 2 are sub-models of the truth, not re-fitted by the
 fit of the complete structure on a short record can return a very fast Gauss-Markov process;
 the filter's discretisation overflowed on one such fit, see the report).
 
-Run ``python bench/study_xsens.py [--runs R] [--quick]``; the printed table is quoted in
+Run ``python studies/study_xsens.py [--runs R] [--quick]``; the printed table is quoted in
 docs/outages.md.
 """
 

@@ -199,7 +199,7 @@ def test_model_covariance_evaluates_the_psd_once_at_nodes_shared_by_every_model(
 
 
 def test_search_does_no_worse_than_a_local_search_from_the_truth() -> None:
-    """A replication of bench/mc_gmwm.py's GM+WN+RW case whose stage-1 results all shrink the
+    """A replication of studies/mc_gmwm.py's GM+WN+RW case whose stage-1 results all shrink the
     random walk to nothing and differ only in how far (a plateau of eq. 20): the refinements
     start from points whose models' WVs differ, and one of them finds the interior optimum
     (RW sigma2 ~ 1.3e-13) that a local search from the true parameters finds. Choosing the

@@ -1,10 +1,10 @@
 """GMWM recovery of known parameters on seeded simulations, interval coverage, and the
 optimality of the fitted objective (against the truth and against nested models).
 
-Tolerances come from the Monte Carlo of bench/mc_gmwm.py (docs/gmwm_monte_carlo.md): the
+Tolerances come from the Monte Carlo of studies/mc_gmwm.py (docs/gmwm_monte_carlo.md): the
 truths below are its MEMS-like designs (rad/s at 100 Hz), and each estimate must lie within
 4 RMSE of the truth, the RMSE being the Monte Carlo's at the test's sample size
-(``python bench/mc_gmwm.py --n 131072 --reps 50 --only ...``, quoted per parameter).
+(``python studies/mc_gmwm.py --n 131072 --reps 50 --only ...``, quoted per parameter).
 """
 
 import numpy as np
@@ -28,7 +28,7 @@ SPEC_GMRW = "GM(beta=0.1, sigma2=1e-7) + WN(sigma2=3e-6) + RW(sigma2=1e-12)"
 SPEC_QNRR = "QN(Q2=1e-7) + WN(sigma2=3e-6) + RW(sigma2=1e-12) + RR(omega=1e-8)"
 SPEC_AR2 = "AR(phi=[1.949, -0.94905], sigma2=1e-10) + WN(sigma2=3e-6)"
 
-# Monte Carlo RMSE at N = 2^17 (bench/mc_gmwm.py --n 131072, R = 50; AR(2)+WN: R = 20), see
+# Monte Carlo RMSE at N = 2^17 (studies/mc_gmwm.py --n 131072, R = 50; AR(2)+WN: R = 20), see
 # the appendix of docs/gmwm_monte_carlo.md.
 # Heavy-tailed ones (slow GM beta, RW, RR: relative RMSE 0.4-4) make loose but honest bounds.
 RMSE = {

@@ -1,7 +1,7 @@
 """Classical pipelines (stochmod.fit.classical.pipelines) on seeded simulations with known parameters.
 
 Tolerances: ``|bias| + 4 sd`` of the estimate / truth over 100 seeded replications of the same
-case, or the largest deviation seen in them if larger (``python bench/compare_methods.py
+case, or the largest deviation seen in them if larger (``python studies/compare_methods.py
 --monte-carlo 100``, table in docs/comparison.md); case A is also docs/allan.md's Monte Carlo
 case. A bias of the method (the Allan N next to a floor, the matched GM's sigma) is part of the
 tolerance, so an improvement never fails a test.
@@ -31,7 +31,7 @@ FS = 100.0
 N_SAMPLES = 1_000_000
 
 # Monte Carlo (100 replications, seeds 2000-2099, N = 1e6, 100 Hz): mean, sd, min, max of
-# estimate / truth (bench/compare_methods.py --monte-carlo 100; docs/comparison.md).
+# estimate / truth (studies/compare_methods.py --monte-carlo 100; docs/comparison.md).
 MC_A = {
     "AV N": (1.0081, 0.0009, 1.0059, 1.0108), "AV K": (1.0178, 0.0567, 0.8076, 1.1511),
     "AV sigma_GM matched": (0.8754, 0.0105, 0.8463, 0.8979),

@@ -214,7 +214,7 @@ def test_jtest_on_pooled_replicates_holds_its_level() -> None:
 
     Under the null the p-values are uniform: the count below 0.05 is Binomial(40, 0.05) (mean 2;
     P(count >= 9) < 0.001) and a Kolmogorov-Smirnov test does not reject uniformity.
-    bench/mc_pooled_jtest.py runs the larger study (100 pairs: 5 % and 0 % rejected at the 5 %
+    studies/mc_pooled_jtest.py runs the larger study (100 pairs: 5 % and 0 % rejected at the 5 %
     and 1 % levels).
     """
     from scipy import stats
