@@ -377,7 +377,7 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
             bad = u[~((u > 0) & (u < math.inf))]
             raise InputError(f"u must be positive finite numbers, got {bad[0]!r}")
     m_bytes = m.tobytes()
-    if _JIT and high <= -_SMALL_Z_LOG and _full_ladder(m_bytes):  # the common case, at once
+    if high <= -_SMALL_Z_LOG and _full_ladder(m_bytes):  # the common case, at once
         w = np.empty((u.size, m.size))
         dw = np.empty((u.size, m.size))
         _positive_rows_jit(u, m, w, dw)
@@ -388,7 +388,6 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
     if ladder.size != m.size or ladder[-1] != m.size - 1:  # some of 1, 2, 4, ...: from all
         w, dw = haar_wv_positive_rows(u, 2.0 ** np.arange(int(ladder.max()) + 1))
         return w[:, ladder], dw[:, ladder]
-    inv2m, inv4m, inv8m = _m_constants(m.size)
     if high > -_SMALL_Z_LOG:  # z < 1e-3: the polynomial, elementwise too
         far = u > -_SMALL_Z_LOG
         w = np.empty((u.size, m.size))
@@ -397,39 +396,21 @@ def haar_wv_positive_rows(u: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.
         if not far.all():
             w[~far], dw[~far] = haar_wv_positive_rows(u[~far], m)
         return w, dw
-    if _JIT:  # the same recursion compiled: one call where numpy makes ~30
-        w = np.empty((u.size, m.size))
-        dw = np.empty((u.size, m.size))
-        _positive_rows_jit(u, m, w, dw)
-        return w, dw
-    us = u.tolist()
-    g_u = [_g_scalar(v) for v in us]
-    s_u = [_sinh_minus_id_scalar(v) for v in us]
-    minus_x = u[:, None] * -m
-    e = np.exp(minus_x)
-    a = -np.expm1(minus_x)  # 1 - e^{-x}
-    # g(x_j) / m_j: the recursion's terms, halved at each level, summed along the row
-    terms = np.empty_like(minus_x)
-    terms[:, 0] = g_u
-    terms[:, 1:] = (a[:, :-1] * a[:, :-1] * a[:, :-1] * (3.0 + e[:, :-1])) * inv2m[:-1]
-    g_over_m = np.cumsum(terms, axis=1)
-    half = 0.5 * u
-    sh = np.sinh(half)
-    sh2 = (sh * sh)[:, None]
-    w = (2.0 * np.array(s_u)[:, None] + g_over_m) * inv8m / sh2
-    dw = inv2m + a * a * inv4m / sh2 - w / np.tanh(half)[:, None]
+    w = np.empty((u.size, m.size))
+    dw = np.empty((u.size, m.size))
+    _positive_rows_jit(u, m, w, dw)
     return w, dw
 
 
 @compiled
 def _positive_rows_jit(u: np.ndarray, m: np.ndarray, w: np.ndarray,
                        dw: np.ndarray) -> None:  # pragma: no cover - compiled
-    """The numpy path of :func:`haar_wv_positive_rows` (0 < u <= -log 1e-3, m = 1, 2, 4, ...),
+    """The recursion of :func:`haar_wv_positive_rows` (0 < u <= -log 1e-3, m = 1, 2, 4, ...),
     row by row in one compiled pass: ``w`` and ``dw`` (K, J) are filled. (Few arguments: each
     costs numba's dispatcher a type check per call; the series' coefficients are constants.)"""
     s_coefs = _S_COEFS
     g_coefs = _G_COEFS
-    inv2m = 0.5 / m  # exact: powers of two, as _m_constants
+    inv2m = 0.5 / m  # exact: powers of two
     inv4m = 0.25 / m
     inv8m = 0.125 / m
     for k in range(u.size):
@@ -475,31 +456,6 @@ positive_rows_kernel = _positive_rows_jit if _JIT else None
 POSITIVE_ROWS_KERNEL_MAX_U = -_SMALL_Z_LOG
 
 
-def _horner(coefs: tuple[float, ...], v: float) -> float:
-    """``sum_k coefs[k] v^k`` for one float (Horner's scheme)."""
-    out = 0.0
-    for c in reversed(coefs):
-        out = out * v + c
-    return out
-
-
-_S_TUPLE = tuple(_S_COEFS.tolist())
-_G_TUPLE = tuple(_G_COEFS.tolist())
-
-
-def _sinh_minus_id_scalar(v: float) -> float:
-    """``sinh(v) - v`` for one float without cancellation (series for |v| < 1)."""
-    return v**3 * _horner(_S_TUPLE, v * v) if abs(v) < 1.0 else math.sinh(v) - v
-
-
-def _g_scalar(x: float) -> float:
-    """``g(x) = 2x - 3 + 4 exp(-x) - exp(-2x)`` for one float x >= 0 (series for x < 1)."""
-    if x < 1.0:
-        return x**3 * _horner(_G_TUPLE, x)
-    e = math.exp(-x)
-    return 2.0 * x - 3.0 + 4.0 * e - e * e
-
-
 @functools.lru_cache(maxsize=16)
 def _ladder(m_bytes: bytes) -> np.ndarray | None:
     """``log2 m`` when every half-width m is a power of two, else None."""
@@ -515,14 +471,3 @@ def _full_ladder(m_bytes: bytes) -> bool:
     """Whether the half-widths are exactly ``1, 2, 4, ..., 2^(J-1)`` (J >= 1)."""
     m = np.frombuffer(m_bytes, dtype=np.float64)
     return bool(m.size) and bool(np.array_equal(m, 2.0 ** np.arange(m.size)))
-
-
-@functools.lru_cache(maxsize=8)
-def _m_constants(levels: int) -> tuple[np.ndarray, ...]:
-    """``1 / (2m)``, ``1 / (4m)`` and ``1 / (8m)`` at ``m = 1, 2, 4, ...`` (`levels` of them;
-    exact: powers of two), shared by every call."""
-    m = 2.0 ** np.arange(levels)
-    out = (0.5 / m, 0.25 / m, 0.125 / m)
-    for a in out:
-        a.flags.writeable = False
-    return out
