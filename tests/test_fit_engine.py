@@ -17,6 +17,8 @@ import pytest
 import stochmod
 import stochmod.fit.weighting  # used as stochmod.fit.weighting below
 from stochmod.core.errors import EstimationError, SpecError
+from stochmod.data.examples import xsens_mtig
+from stochmod.fit.criteria import identified
 from stochmod.fit import results as results_module
 from stochmod.fit.engine import (
     BOUND,
@@ -100,7 +102,7 @@ def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
     # 1.4e-5 s, white noise at 100 Hz), where d wv / d beta is subnormal (1e-312); the unscaled
     # solve of the J-test's projection returned inf and NaN instead of failing. Now the
     # J-test, like the sandwich and the selection's ranking, reports it as not identified
-    rec = stochmod.data.examples.xsens_mtig(n=2**16)
+    rec = xsens_mtig(n=2**16)
     start = ("GM(beta=70285.66674261213, sigma2=6.967380202173328e-05) + "
              "GM(beta=36.673130617480645, sigma2=4.166025011863311e-07) + "
              "GM(beta=0.012058965719611538, sigma2=0.0031713053440993975) + "
@@ -111,7 +113,7 @@ def test_jtest_of_a_fit_with_an_unidentified_parameter_is_none() -> None:
     assert fit.jtest is None
     with pytest.raises(EstimationError, match="does not depend on some parameter"):
         fit.std_errors  # noqa: B018
-    assert not stochmod.fit.criteria.identified(fit)
+    assert not identified(fit)
 
 
 def test_canonical_orders_repeated_components_fastest_first() -> None:
@@ -226,7 +228,7 @@ def test_jtest_exists_exactly_for_the_identified_fits_of_a_lattice() -> None:
     from stochmod.fit.results import negligible_components
     from stochmod.workflows.fleet import SerialExecutor
 
-    rec = stochmod.data.examples.xsens_mtig(n=2**16)
+    rec = xsens_mtig(n=2**16)
     sel = stochmod.select(rec.column("accel_y"), rec.freq, executor=SerialExecutor(),
                           progress=False)
     plain = {name: fit for name, fit in sel.fits.items() if not negligible_components(fit)}
