@@ -1,6 +1,6 @@
-"""Diagnostics behind docs/navigation.md "Real drive: the HGuide n380 and pyins" (issue 10).
+"""Diagnostics behind docs/navigation.md "Real drive: the HGuide n380 and pyins".
 
-Needs navpeer's ``bench/_n380.py`` (the onavdata loader) and the ``test`` extra. Prints:
+Needs ``tests/nav/_n380.py`` (the onavdata loader) and the ``test`` extra. Prints:
 
 1. ``fd``: the filter's transition over ``--steps`` IMU samples against central finite
    differences of the mechanisation itself, on the drive's increments from the reference state
@@ -11,7 +11,7 @@ Needs navpeer's ``bench/_n380.py`` (the onavdata loader) and the ``test`` extra.
 3. ``runs``: the outage errors with the lever arm ignored and estimated (``lever_arm_sd``),
    position only and with velocity, with pyins' example models (as ``_n380.run_stochmod``).
 
-Run ``python bench/nav_n380_checks.py [fd] [lever] [runs]``. Uses private filter internals
+Run ``python studies/nav_n380_checks.py [fd] [lever] [runs]``. Uses private filter internals
 (``_Run._propagate``, ``_Run._feedback``) on purpose: the check is of those very functions.
 """
 
@@ -24,21 +24,21 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-from _n380 import OUTAGE_DURATION, OUTAGE_STARTS, load_n380, outage_windows  # noqa: E402
+from _n380 import OUTAGE_DURATION, OUTAGE_STARTS, load_n380, outage_windows
 
-import stochmod  # noqa: E402
-import stochmod.nav.filter as nav_filter  # noqa: E402
-from stochmod.nav import GnssData, InitialState, LooselyCoupledFilter, earth, frames  # noqa: E402
-from stochmod.nav.emulate import Trajectory  # noqa: E402
-from stochmod.nav.strapdown import Mechanisation, NavState, imu_increments  # noqa: E402
+import stochmod
+import stochmod.nav.filter as nav_filter
+from stochmod.nav import GnssData, InitialState, LooselyCoupledFilter, earth, frames
+from stochmod.nav.emulate import Trajectory
+from stochmod.nav.strapdown import Mechanisation, NavState, imu_increments
 
 DEG_H = math.pi / 180 / 3600
 
 
 def pyins_models(freq: float = 100.0):
-    """pyins' real-data example MEMS parameters (bench/nav_pyins_n380.py) as stochmod models."""
+    """pyins' real-data example MEMS parameters (studies/nav_pyins_n380.py) as stochmod models."""
     gyro = (stochmod.WN.from_density(math.pi / 180 / 60, freq)
             + stochmod.RW.from_rrw(30 * DEG_H / 60, freq)).bind(freq)
     accel = (stochmod.WN.from_density(0.1 / 60, freq)
@@ -54,9 +54,8 @@ def horizontal_error(ref: Trajectory, t, lat, lon) -> np.ndarray:
                     np.radians(lon - tr.lon) * (re + tr.height) * np.cos(la))
 
 
-# the filter settings the checks' stand-in loops read: the defaults (psi feedback, F at the
-# middle of each covariance step)
-FILTER = types.SimpleNamespace(error_model="psi", linearisation="midpoint")
+# the filter setting the checks' stand-in loops read: the default psi feedback
+FILTER = types.SimpleNamespace(error_model="psi")
 
 
 def check_transition(drive, steps: int) -> None:
@@ -108,17 +107,17 @@ def check_transition(drive, steps: int) -> None:
         ns._F[9:, 9:], ns._W[9:, 9:] = sens.F, sens.GQG
         ns.P = np.eye(n)  # P = I: after the step P = Phi Phi' + Q; Phi read back below
         captured = {}
-        original = nav_filter._discretise
+        original = nav_filter.discretise
 
         def grab(F, W, d):
             captured["Phi"] = original(F, W, d)[0]
             return captured["Phi"], np.zeros_like(F)
 
-        nav_filter._discretise = grab
+        nav_filter.discretise = grab
         try:
             nav_filter._Run._propagate(ns, dt, steps, tuple(np.array(nom.dv_n) / dt))
         finally:
-            nav_filter._discretise = original
+            nav_filter.discretise = original
         Phi = captured["Phi"]
         fd = np.zeros((9, n))
         for j in range(n):

@@ -1,27 +1,31 @@
-"""stochmod and pyins on the n380 drive over an ensemble of the SAME random starts (issue 10).
+"""stochmod and pyins on the n380 drive over an ensemble of the SAME random starts.
 
 One drive gives one realisation of each outage's maximum error, and the start alone moves
 outage 2 by metres, so "no worse than pyins per outage" is decided on the mean over seeded
 starts: for seed s both filters start from the reference at the first epoch perturbed by pyins'
 ``generate_pva_error(5 m, 0.5 m/s, 0.2 deg, 1 deg, rng=s)``, with the settings of
-``bench/nav_pyins_n380.py`` (pyins' real-data example MEMS model, GNSS position updates with sd
+``studies/nav_pyins_n380.py`` (pyins' real-data example MEMS model, GNSS position updates with sd
 1 m, the three 60 s outages) and the IMU-to-antenna lever arm fitted from the data, (-1.3, 0, 0)
 m, fixed in both.
 
 pyins takes ~95 s a run on a quiet machine (much more under load; it is stopped 1 s after the
 last outage, which changes nothing before it: the filter is causal), so its runs are cached per
-seed in ``bench/reference/nav_pyins_n380_ensemble.json`` (written after every run, resumed on
+seed in ``tests/nav/reference/nav_pyins_n380_ensemble.json`` (written after every run, resumed on
 the next call): the per-outage maximum horizontal error, the initial error of the seed, and
 pyins' state and 1-sigma just before each outage (``nav_pyins_n380.states_at_outages``).
+tests/nav/test_n380.py compares stochmod with these runs; the stochmod side (``stochmod_runs``,
+``summary``, ``verdict``) lives in tests/nav/_n380.py, which this script imports.
 
-Run ``python bench/nav_n380_ensemble.py --pyins --seeds 10`` (the missing pyins runs, serially,
-one at a time) and then ``python bench/nav_n380_ensemble.py`` (stochmod on the cached seeds and
+Run ``python studies/nav_n380_ensemble.py --pyins --seeds 10`` (the missing pyins runs, serially,
+one at a time) and then ``python studies/nav_n380_ensemble.py`` (stochmod on the cached seeds and
 the table: per-outage mean, sd and standard error of both, and of the paired difference
 stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
 (the covariance held in ``(dv - v_hat x psi, psi)`` across each feedback;
-docs/navigation_real_drive.md, "The cause"), ``--error-model psi-exact`` with the exact reset of
-the psi model ("An exact reset"); ``--linearisation end --timing epoch`` runs the filter as it
-was before the midpoint linearisation and the fix-time measurement matrix became the defaults.
+docs/navigation_real_drive.md, "The cause").
+
+Compared here with library options since removed (studies/README.md keeps the results): the
+exact reset Jacobian of the psi model (``error_model="psi-exact"``), and the filter with F at
+the end of each covariance step and each fix taken as the error at the next IMU epoch.
 """
 
 from __future__ import annotations
@@ -33,22 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from stochmod.nav.filter import ERROR_MODELS, LINEARISATIONS, TIMINGS
+from stochmod.nav.filter import ERROR_MODELS
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-from _n380 import (OUTAGE_DURATION, OUTAGE_STARTS, load_n380, max_outage_errors,  # noqa: E402
-                   run_stochmod)
-
-ENSEMBLE_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380_ensemble.json"
-LEVER_ARM = (-1.3, 0.0, 0.0)
-
-
-def load_cache() -> dict:
-    """The cached pyins runs (``{"runs": {seed: {...}}}``), empty when there are none."""
-    if ENSEMBLE_JSON.exists():
-        return json.loads(ENSEMBLE_JSON.read_text())
-    return {"runs": {}}
+from _n380 import (ENSEMBLE_JSON, LEVER_ARM, OUTAGE_DURATION, OUTAGE_STARTS,
+                   load_cache, load_n380, max_outage_errors, stochmod_runs, summary, verdict)
 
 
 def run_pyins_seeds(drive, seeds: list[int]) -> dict:
@@ -82,45 +77,6 @@ def run_pyins_seeds(drive, seeds: list[int]) -> dict:
         print(f"pyins seed {seed}: {', '.join(f'{e:6.1f}' for e in errors)} m  "
               f"(wall {wall:.0f} s)", flush=True)
     return cache
-
-
-def stochmod_runs(drive, cache: dict, **kwargs) -> dict[str, tuple[np.ndarray, dict]]:
-    """stochmod's per-outage maximum horizontal error (m) and state before each outage
-    (:func:`states_before_outages`) for every cached seed, started from the same initial error
-    as pyins' run of that seed. `kwargs` go to ``run_stochmod``."""
-    out = {}
-    for seed, run in cache["runs"].items():
-        result = run_stochmod(drive, velocity=False, initial_error=run["initial_error"],
-                              lever_arm=LEVER_ARM, **kwargs)
-        out[seed] = (np.array(max_outage_errors(result.time, result.lat, result.lon,
-                                                drive.reference, drive.t0)),
-                     states_before_outages(result, drive))
-    return out
-
-
-def states_before_outages(result, drive) -> dict[str, list]:
-    """stochmod's state at the last epoch before each outage, in the units and keys of
-    ``nav_pyins_n380.states_at_outages``: attitude and velocity error against the reference
-    with their 1-sigma, and the estimated sensor errors per axis (gyro deg/h, accel m/s^2)."""
-    out: dict[str, list] = {k: [] for k in ("rph_error_deg", "vel_error_m_s", "rph_sd_deg",
-                                            "vel_sd_m_s", "gyro_bias_deg_h", "accel_bias_m_s2")}
-    for start in OUTAGE_STARTS:
-        t = drive.t0 + start
-        i = int(np.searchsorted(result.time, t)) - 1
-        ref = drive.reference.at(result.time[i:i + 1])
-        err = result.rph[i] - ref.rph[0]
-        err[2] = (err[2] + 180.0) % 360.0 - 180.0
-        e = int(np.searchsorted(result.epoch_time, t)) - 1
-        out.setdefault("pva_before", []).append(
-            [float(result.time[i]), float(result.lat[i]), float(result.lon[i]),
-             float(result.height[i]), *result.vel_ned[i].tolist(), *result.rph[i].tolist()])
-        out["rph_error_deg"].append(err.tolist())
-        out["vel_error_m_s"].append((result.vel_ned[i] - ref.vel_ned[0]).tolist())
-        out["rph_sd_deg"].append(result.sd_rph[i].tolist())
-        out["vel_sd_m_s"].append(result.sd_velocity[i].tolist())
-        out["gyro_bias_deg_h"].append((np.degrees(result.sensor_errors[e, :3]) * 3600).tolist())
-        out["accel_bias_m_s2"].append(result.sensor_errors[e, 3:].tolist())
-    return out
 
 
 def coast(drive, k: int, states: dict) -> float:
@@ -170,29 +126,6 @@ def compare_states(ours: dict[str, tuple[np.ndarray, dict]], cache: dict) -> Non
             print(line)
 
 
-def summary(ours: dict[str, np.ndarray], cache: dict) -> dict[str, np.ndarray]:
-    """Per-outage mean, sd and standard error of both filters and of the paired difference
-    (stochmod - pyins) over the seeds both have."""
-    seeds = sorted(ours, key=int)
-    a = np.array([ours[s] for s in seeds])
-    b = np.array([cache["runs"][s]["max_horizontal_error_m"] for s in seeds])
-    n = len(seeds)
-    out = {"n": np.array(n)}
-    for name, x in (("stochmod", a), ("pyins", b), ("difference", a - b)):
-        sd = x.std(axis=0, ddof=1) if n > 1 else np.full(x.shape[1], np.nan)
-        out[f"{name}_mean"], out[f"{name}_sd"], out[f"{name}_se"] = x.mean(0), sd, sd / np.sqrt(n)
-    return out
-
-
-def verdict(s: dict[str, np.ndarray], margin: float = 2.0) -> list[str]:
-    """Per outage, from the paired difference stochmod - pyins: ``"better"`` when its mean is
-    below zero by more than `margin` standard errors, ``"worse"`` when above by more, else
-    ``"not resolved"`` (no difference beyond the ensemble's standard error)."""
-    mean, se = s["difference_mean"], s["difference_se"]
-    return ["better" if m + margin * e < 0 else "worse" if m - margin * e > 0
-            else "not resolved" for m, e in zip(mean, se)]
-
-
 def print_table(s: dict[str, np.ndarray]) -> None:
     print(f"{int(s['n'])} seeded starts, position updates, lever arm {LEVER_ARM} m in both")
     print("outage | stochmod mean (sd) | pyins mean (sd) | stochmod - pyins mean +- se")
@@ -212,18 +145,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="also compare the two filters' states before each outage")
     parser.add_argument("--error-model", default="psi", choices=ERROR_MODELS,
                         help="stochmod's error model (default psi; modified-phi: pyins' reset)")
-    parser.add_argument("--linearisation", default="midpoint", choices=LINEARISATIONS,
-                        help="where F is evaluated over a covariance step (default midpoint)")
-    parser.add_argument("--timing", default="fix", choices=TIMINGS,
-                        help="a fix's error at its own time (fix, default) or the IMU epoch's")
     args = parser.parse_args(argv)
     drive = load_n380()
     cache = run_pyins_seeds(drive, list(range(args.seeds))) if args.pyins else load_cache()
     if not args.no_stochmod and cache["runs"]:
-        ours = stochmod_runs(drive, cache, error_model=args.error_model,
-                             linearisation=args.linearisation, timing=args.timing)
-        print(f"stochmod error model: {args.error_model}, linearisation {args.linearisation}, "
-              f"timing {args.timing}")
+        ours = stochmod_runs(drive, cache, error_model=args.error_model)
+        print(f"stochmod error model: {args.error_model}")
         for seed in sorted(ours, key=int):
             print(f"seed {seed}: stochmod {np.round(ours[seed][0], 1)} m, pyins "
                   f"{np.round(cache['runs'][seed]['max_horizontal_error_m'], 1)} m")

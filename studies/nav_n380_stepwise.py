@@ -4,8 +4,8 @@
 pyins runs once with its Kalman correction and its error-propagation function wrapped, so that
 every propagation (``Phi, Q``, the step, its linearisation point: mid-step PVA and mean body
 specific force) and every update (``P`` before, ``z, H, R``) is logged in order; stochmod runs
-from the same start with each error model (``error_model="psi"``, ``"psi-exact"`` and
-``"modified-phi"``). Printed:
+from the same start with each error model (``error_model="psi"`` and ``"modified-phi"``; the
+figures of the exact psi reset, a library option then, are in studies/README.md). Printed:
 
 1. at times through the standstill (the first 120 s), the drive and the 60 s before outage 3:
    the heading and gyro-z bias 1-sigma of the filters, and the difference of each
@@ -15,7 +15,7 @@ from the same start with each error model (``error_model="psi"``, ``"psi-exact"`
    (``_Run._propagate`` of the filter, at pyins' PVA and specific force), without and with the
    modified-phi reset. The heading 1-sigma at the end of the standstill is the measure.
 
-Run ``python bench/nav_n380_stepwise.py [--seed 0] [--stop 483]`` (`--stop`: s after the first
+Run ``python studies/nav_n380_stepwise.py [--seed 0] [--stop 483]`` (`--stop`: s after the first
 epoch at which pyins stops; pyins takes 2 to 8 minutes here).
 """
 
@@ -23,15 +23,18 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from _n380 import load_n380, run_stochmod
-from nav_n380_ensemble import LEVER_ARM
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
+
+from _n380 import LEVER_ARM, load_n380, run_stochmod
 from nav_pyins_n380 import initial_error, raw_inputs, run_pyins
 
 from stochmod.nav import InitialState, frames
-from stochmod.nav.filter import ERROR_MODELS, _Run, _Sensors, _skew
+from stochmod.nav.filter import ERROR_MODELS, _Run, _Sensors
 
 TIMES = (50.0, 100.0, 119.0, 160.0, 250.0, 421.9)
 
@@ -75,10 +78,8 @@ def replay(drive, events, seed: int, error_model: str) -> np.ndarray:
     from stochmod.nav import LooselyCoupledFilter
 
     gyro, accel, gb, ab = pyins_example_models()
-    # linearisation="end": F is evaluated at the state set below, pyins' own mid-step PVA
     flt = LooselyCoupledFilter(gyro, accel, gyro_bias_sd=gb, accel_bias_sd=ab,
-                               lever_arm=LEVER_ARM, error_model=error_model,
-                               linearisation="end")
+                               lever_arm=LEVER_ARM, error_model=error_model)
     ref, err = drive.reference, initial_error(seed)
     init = InitialState(ref.lat[0], ref.lon[0], ref.height[0], ref.vel_ned[0] + err["vel"],
                         ref.rph[0] + np.asarray(err["rph"]), sd_position=5.0, sd_velocity=0.5,
@@ -96,6 +97,8 @@ def replay(drive, events, seed: int, error_model: str) -> np.ndarray:
             mech.q = tuple(frames.rph_to_quat(rph))
             mech.lat, mech.h = np.radians(float(pva["lat"])), float(pva["alt"])
             mech.v = tuple(pva[["VN", "VE", "VD"]].to_numpy(dtype=float))
+            # both ends of the step at pyins' mid-step PVA: the filter's midpoint is that state
+            run._start = (mech.lat, mech.h, mech.v, mech.q)
             run._propagate(dt, max(1, round(dt / 0.01)), tuple(frames.rph_to_dcm(rph) @ f_b))
             continue
         _, _, innovation, H, R = ev
@@ -107,7 +110,7 @@ def replay(drive, events, seed: int, error_model: str) -> np.ndarray:
         run.P = U @ run.P @ U.T + K @ R @ K.T
         if error_model == "modified-phi":  # the hold only (pyins' state is not replayed)
             run._reset(slice(3, 6), slice(3, 9),
-                       np.hstack([np.eye(3), _skew(-(K @ innovation)[3:6])]))
+                       np.hstack([np.eye(3), frames.skew(-(K @ innovation)[3:6])]))
     return np.array(out)
 
 

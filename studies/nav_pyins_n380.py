@@ -1,7 +1,7 @@
 """Peer run: pyins' loosely-coupled feedback filter on the onavdata HGuide n380 drive with three
-60 s GNSS outages (issue 10), printing the maximum horizontal error in each outage against the
+60 s GNSS outages, printing the maximum horizontal error in each outage against the
 unit's own INS solution and the wall time, and writing them to
-``bench/reference/nav_pyins_n380.json`` (the numbers stochmod's real-drive test compares with).
+``tests/nav/reference/nav_pyins_n380.json`` (the numbers stochmod's real-drive test compares with).
 
 Settings are those of pyins' real-data example (``examples/real_data_processing.ipynb`` of
 pyins 1.0, the example with a low-to-middle grade MEMS IMU):
@@ -23,12 +23,12 @@ real-drive test compares stochmod's state with.
 
 Two inputs are run:
 
-- ``raw``: the increments and true time stamps of bench/_n380.py (what stochmod gets);
+- ``raw``: the increments and true time stamps of tests/nav/_n380.py (what stochmod gets);
 - ``onavdata``: ``onavdata.get_data`` output (time rounded to 0.01 s, increments x 100 as
   rates, integrated by ``pyins.strapdown.compute_increments_from_imu(imu, "rate")``), the
   path a pyins user following onavdata's loader takes.
 
-Run ``python bench/nav_pyins_n380.py [--write]`` (``--write`` refreshes the JSON's runs
+Run ``python studies/nav_pyins_n380.py [--write]`` (``--write`` refreshes the JSON's runs
 of the inputs given with ``--inputs``). Timings are
 noisy on a shared machine: wall time includes numba's JIT on the first run.
 """
@@ -43,10 +43,11 @@ from pathlib import Path
 
 import numpy as np
 
-from _n380 import (OUTAGE_DURATION, OUTAGE_STARTS, SHORTNAME, in_outage, load_n380,
-                   max_outage_errors)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-REFERENCE_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380.json"
+from _n380 import (OUTAGE_DURATION, OUTAGE_STARTS, SHORTNAME, in_outage,
+                   load_n380, max_outage_errors)
+from _n380 import PEER_JSON as REFERENCE_JSON
 
 # pyins' real-data example (module docstring), SI units
 GYRO = {"bias_sd_deg_h": 300.0, "noise_deg_sqrt_h": 1.0, "bias_walk_deg_h_sqrt_h": 30.0}
@@ -238,7 +239,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pyins {pyins.__version__} {source:8s} {mode:17s} max horizontal error per "
                   f"outage: {', '.join(f'{e:6.1f}' for e in errors)} m   wall {wall:5.1f} s "
                   f"({duration / wall:5.1f}x real time)", flush=True)
-    print("issue 10's pyins figures: position 85, 6.6, ~18 m; position+velocity 40, 5.2, 15.4 m")
+    print("the pyins figures the comparison set out to match: position 85, 6.6, ~18 m; "
+          "position+velocity 40, 5.2, 15.4 m")
     if args.write:
         if REFERENCE_JSON.exists():  # keep the runs of the inputs not run now
             kept = json.loads(REFERENCE_JSON.read_text())["runs"]

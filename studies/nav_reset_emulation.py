@@ -1,10 +1,10 @@
 """Which reset is better when the truth is known: stochmod's filter with each of its error
-models (``error_model="psi"``, ``"psi-exact"`` and pyins' ``"modified-phi"``) on emulated drives
+models (``error_model="psi"`` and pyins' ``"modified-phi"``) on emulated drives
 built like the n380 drive (docs/navigation_real_drive.md, "Which reset is better?").
 
 Each run: a standstill (``--still`` s, default 120), then about 5 minutes of driving with turns;
 the IMU is the exact one of the trajectory plus errors drawn from pyins' example MEMS model
-(white noise + random walk per axis, bench/_n380.py) and turn-on biases of its 1-sigma (300
+(white noise + random walk per axis, tests/nav/_n380.py) and turn-on biases of its 1-sigma (300
 deg/h, 0.05 m/s^2); GNSS position fixes at 1 Hz with sd 1 m at an antenna 1.3 m behind the IMU
 (the n380's fitted lever arm, known to the filter); the start perturbed by draws of pyins'
 initial sd (5 m, 0.5 m/s, 0.2/0.2/1 deg); two 60 s outages while driving. Both filters see the
@@ -12,12 +12,12 @@ same data; printed per seed and on average: the maximum horizontal error in each
 the mean NEES of the 9 navigation states (9 for an honest filter), and the paired difference
 of each other model minus psi with its standard error.
 
-Run ``python bench/nav_reset_emulation.py [--seeds 12] [--first-seed 0] [--still 120]``
-(~9 s a seed here). ``--configs end/epoch midpoint/fix [...]`` runs each error model (``--models``)
-with each ``linearisation/timing`` pair of the filter and pairs each against the first (the
-library's default is ``midpoint/fix``; ``end/epoch`` is the filter before that change);
-``--fix-offset 0.005`` stamps the fixes 5 ms after the IMU epochs (otherwise on them, where the
-timing choice makes no difference).
+Run ``python studies/nav_reset_emulation.py [--seeds 12] [--first-seed 0] [--still 120]
+[--fix-offset 0.005]`` (~6 s a seed and model here; ``--fix-offset`` stamps the fixes that many
+seconds after the IMU epochs, otherwise on them). It also compared two filter options since
+removed from the library, the exact reset Jacobian of the psi model (``"psi-exact"``) and F at
+the end of each covariance step with each fix taken as the error at the next IMU epoch; their
+results are in studies/README.md.
 """
 
 from __future__ import annotations
@@ -25,13 +25,17 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
+
 from _n380 import pyins_example_models
 
-from stochmod.nav import (ImuData, InitialState, LooselyCoupledFilter, Segment, add_sensor_errors,
-                          gnss_measurements, ideal_imu, trajectory_from_profile)
+from stochmod.nav import (ImuData, InitialState, LooselyCoupledFilter, Segment,
+                          add_sensor_errors, gnss_measurements, ideal_imu,
+                          trajectory_from_profile)
 from stochmod.nav.emulate import AXES
 from stochmod.nav.filter import ERROR_MODELS
 from stochmod.nav.study import max_outage_errors
@@ -54,11 +58,8 @@ def drive(still: float):
 
 
 def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
-             configs=(("midpoint", "fix"),), fix_offset: float = 0.0
-             ) -> dict[str, tuple[np.ndarray, float]]:
-    """Per error model and configuration ``(linearisation, timing)``: maximum horizontal error
-    per outage (m) and mean NEES of one seed (keys ``model`` for one configuration, else
-    ``model linearisation/timing``)."""
+             fix_offset: float = 0.0) -> dict[str, tuple[np.ndarray, float]]:
+    """Per error model: maximum horizontal error per outage (m) and mean NEES of one seed."""
     gyro, accel, gyro_bias_sd, accel_bias_sd = pyins_example_models()
     rng = np.random.default_rng(100 + seed)
     bias = np.r_[rng.normal(0, gyro_bias_sd, 3), rng.normal(0, accel_bias_sd, 3)]
@@ -80,18 +81,15 @@ def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
                         sd_position=5.0, sd_velocity=0.5, sd_attitude=(0.2, 0.2, 1.0))
     t0 = truth.time[0]
     out = {}
+    windows = [(t0 + s, t0 + s + d) for s, d in outages]
     for model in models:
-        for lin, timing in configs:
-            flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
-                                       accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
-                                       lever_arm=LEVER_ARM, error_model=model,
-                                       linearisation=lin, timing=timing)
-            res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss,
-                          init=init, outages=outages, truth=truth)
-            windows = [(t0 + s, t0 + s + d) for s, d in outages]
-            key = model if len(configs) == 1 else f"{model} {lin}/{timing}"
-            out[key] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
-                        res.mean_nees)
+        flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+                                   accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
+                                   lever_arm=LEVER_ARM, error_model=model)
+        res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss,
+                      init=init, outages=outages, truth=truth)
+        out[model] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
+                      res.mean_nees)
     return out
 
 
@@ -102,19 +100,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--still", type=float, default=120.0, help="standstill at the start, s")
     parser.add_argument("--models", nargs="+", default=list(ERROR_MODELS),
                         choices=ERROR_MODELS)
-    parser.add_argument("--configs", nargs="+", default=["midpoint/fix"],
-                        help="LINEARISATION/TIMING pairs (midpoint|end / fix|epoch); with more "
-                             "than one, each is paired against the first within each model")
     parser.add_argument("--fix-offset", type=float, default=0.0,
                         help="GNSS fixes this many seconds after the IMU epochs (< one step)")
     args = parser.parse_args(argv)
-    configs = [tuple(c.split("/")) for c in args.configs]
     truth, outages = drive(args.still)
     clean = ideal_imu(truth, "increment")
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
-        runs.append(one_seed(truth, clean, outages, seed, args.models, configs,
-                             args.fix_offset))
+        runs.append(one_seed(truth, clean, outages, seed, args.models, args.fix_offset))
         print(f"seed {seed}: " + "; ".join(f"{m} {np.round(e, 1)} m" for m, (e, _) in
                                              runs[-1].items()), flush=True)
     keys = list(runs[0])
@@ -122,11 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     for m in keys:
         print(f"{m:28s} mean max horizontal error per outage {np.round(err[m].mean(0), 2)} m, "
               f"mean NEES {np.mean([r[m][1] for r in runs]):.2f}")
-    if len(configs) == 1:
-        pairs = [(m, "psi") for m in keys if m != "psi" and "psi" in keys]
-    else:
-        pairs = [(k, keys[i - i % len(configs)]) for i, k in enumerate(keys) if i % len(configs)]
-    for m, base in pairs:
+    for m, base in [(m, "psi") for m in keys if m != "psi" and "psi" in keys]:
         d = err[m] - err[base]
         se = d.std(0, ddof=1) / math.sqrt(len(d)) if len(d) > 1 else np.full(d.shape[1], np.nan)
         print(f"{m} - {base}: {np.round(d.mean(0), 2)} +- {np.round(se, 2)} m")

@@ -13,13 +13,7 @@ from stochmod.core.errors import InputError
 from stochmod.core.model import Model
 from stochmod.plugin.registry import get_process
 from stochmod.nav.alignment import InitialState
-from stochmod.nav.filter import (
-    ERROR_MODELS,
-    LINEARISATIONS,
-    TIMINGS,
-    LooselyCoupledFilter,
-    NavResult,
-)
+from stochmod.nav.filter import ERROR_MODELS, LooselyCoupledFilter, NavResult
 from stochmod.nav.logs import calibration_record, read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
 
@@ -80,16 +74,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dt-filter", type=float, default=0.1, metavar="S",
                    help="covariance step of the filter, s (default 0.1)")
     p.add_argument("--error-model", choices=ERROR_MODELS, default="psi",
-                   help="how the filter feeds back and resets its covariance: psi (default, "
-                        "first-order reset), psi-exact (its exact reset Jacobian) or pyins' "
-                        "modified-phi (docs/navigation.md, 'Reset')")
-    p.add_argument("--linearisation", choices=LINEARISATIONS, default="midpoint",
-                   help="where a covariance step evaluates F: midpoint (default; at the mean of "
-                        "the step's two navigation states, local error O(dt^3)) or end (at its "
-                        "end state, O(dt^2))")
-    p.add_argument("--timing", choices=TIMINGS, default="fix",
-                   help="which time a GNSS fix's error refers to: fix (default; its own time "
-                        "stamp, H (I - (t_k - t_m) F)) or epoch (the filter epoch after it)")
+                   help="the filter's error formulation, which sets how it feeds back and "
+                        "resets its covariance: psi (default, the psi-angle model) or "
+                        "modified-phi (Scherzinger & Reid's, the one pyins uses: choose it to "
+                        "reproduce a pyins filter; docs/navigation.md, 'Reset')")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 
@@ -175,8 +163,7 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
         f"turn-on bias 1-sigma: gyro {gyro_bias_sd:.3g} rad/s, accel {accel_bias_sd:.3g} m/s^2",
-        f"filter reset: {args.error_model}; linearisation: {args.linearisation}; fix timing: "
-        f"{args.timing}",
+        f"filter error model: {args.error_model}",
         "",
         result.summary(),
     ]
@@ -239,8 +226,7 @@ def run(args: argparse.Namespace) -> int:
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
                                gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
                                lever_arm_sd=lever_arm_sd, record=record,
-                               error_model=args.error_model, linearisation=args.linearisation,
-                               timing=args.timing)
+                               error_model=args.error_model)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages)
     out = Path(args.out)

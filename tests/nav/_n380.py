@@ -1,6 +1,8 @@
 """The onavdata HGuide n380 car drive ("2021-04-27 HGuide n380 Car Hill Driving") in stochmod's
 conventions, loaded from the installed ``onavdata`` package (its data carry no licence: nothing
-of it is copied into the repository).
+of it is copied into the repository), and stochmod's filter on it with pyins' settings: what
+tests/nav/test_n380.py runs, and the scripts of studies/ that compare the two filters on it
+(they put this folder on ``sys.path``).
 
 What onavdata ships (five zipped CSVs on the unit's system clock ``SystemTov``, s):
 
@@ -25,6 +27,7 @@ the antenna on the roof rack above the rear-right passenger without a measured l
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -35,22 +38,41 @@ from stochmod.nav.emulate import Trajectory
 from stochmod.nav.records import GnssData, ImuData
 
 __all__ = [
+    "ENSEMBLE_JSON",
+    "LEVER_ARM",
+    "PEER_JSON",
     "SHORTNAME",
     "N380Drive",
     "OUTAGE_DURATION",
     "OUTAGE_STARTS",
     "in_outage",
+    "load_cache",
     "load_n380",
     "max_outage_errors",
     "outage_windows",
     "pyins_example_models",
     "run_stochmod",
     "onavdata_missing_reason",
+    "states_before_outages",
+    "stochmod_runs",
+    "summary",
+    "verdict",
     "write_navigate_csvs",
 ]
 
 SHORTNAME = "2021-04-27 HGuide n380 Car Hill Driving"
 NAV_MODE = 4
+
+#: pyins' runs on the drive from the reference start perturbed by its ``generate_pva_error(...,
+#: rng=0)``, position and position + velocity updates (written by studies/nav_pyins_n380.py).
+PEER_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380.json"
+#: pyins' runs from the seeded starts of the ensemble, position updates, lever arm `LEVER_ARM`
+#: fixed (written by studies/nav_n380_ensemble.py): per seed the start, the outage errors and
+#: the state before each outage.
+ENSEMBLE_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380_ensemble.json"
+#: The IMU-to-antenna lever arm fitted from the drive's data (body x/y/z, m;
+#: docs/navigation.md, "Real drive").
+LEVER_ARM = (-1.3, 0.0, 0.0)
 
 
 def onavdata_missing_reason() -> str | None:
@@ -169,7 +191,8 @@ def write_navigate_csvs(drive: N380Drive, directory: str | Path) -> tuple[Path, 
     return imu_path, gnss_path
 
 
-#: The issue's three 60 s GNSS outages: starts in s after the first epoch (``N380Drive.t0``).
+#: The three 60 s GNSS outages of the comparison: starts in s after the first epoch
+#: (``N380Drive.t0``); the car moves in all three.
 OUTAGE_STARTS = (151.9, 279.2, 422.0)
 OUTAGE_DURATION = 60.0
 
@@ -197,7 +220,7 @@ def max_outage_errors(time: np.ndarray, lat: np.ndarray, lon: np.ndarray,
 
 
 def pyins_example_models(freq: float = 100.0):
-    """pyins' real-data example MEMS model (bench/nav_pyins_n380.py) as stochmod models: the
+    """pyins' real-data example MEMS model (studies/nav_pyins_n380.py) as stochmod models: the
     defaults of ``stochmod navigate``. Gyro: white noise 1 deg/sqrt(h) + random walk
     30 deg/h/sqrt(h), turn-on bias 300 deg/h; accelerometer: 0.1/60 m/s/sqrt(s) + 0.01/60
     m/s^2/sqrt(s), turn-on bias 0.05 m/s^2. Returns ``(gyro_model, accel_model, gyro_bias_sd,
@@ -212,9 +235,8 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                  gyro_bias_sd: float | None = None, accel_bias_sd: float | None = None,
                  initial_error: dict | None = None, gate: float | None = None,
                  receiver_sd: bool = False, lever_arm=(0.0, 0.0, 0.0), lever_arm_sd=0.0,
-                 dt_filter: float = 0.1, error_model: str = "psi",
-                 linearisation: str = "midpoint", timing: str = "fix"):
-    """stochmod's loosely-coupled filter on the drive with the issue's three outages.
+                 dt_filter: float = 0.1, error_model: str = "psi"):
+    """stochmod's loosely-coupled filter on the drive with the three outages.
 
     Defaults: pyins' example models (:func:`pyins_example_models`), GNSS sd 1 m and 0.3 m/s,
     initial sd 5 m, 0.5 m/s, 0.2/0.2/1 deg, covariance step 0.1 s, no lever arm, no gating:
@@ -223,8 +245,7 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     (``{"ned": m, "vel": m/s, "rph": deg}``) perturbs the reference start as pyins' run does.
     `lever_arm` (body x/y/z, m) is the IMU-to-antenna lever arm; ``lever_arm_sd`` > 0 (m, one or
     three values) makes it three constant states started there (``stochmod navigate
-    --lever-arm-sd``); `error_model`, `linearisation` and `timing` are the filter's
-    (:class:`stochmod.nav.LooselyCoupledFilter`).
+    --lever-arm-sd``); `error_model` is the filter's (:class:`stochmod.nav.LooselyCoupledFilter`).
     Returns the NavResult.
     """
     from stochmod.nav import InitialState, LooselyCoupledFilter
@@ -252,8 +273,77 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=dt_filter, gyro_bias_sd=gyro_bias_sd,
                                accel_bias_sd=accel_bias_sd, gate=gate, gnss_sd=(1.0, 1.0, 1.0),
                                gnss_vel_sd=0.3, lever_arm=lever_arm, lever_arm_sd=lever_arm_sd,
-                               error_model=error_model, linearisation=linearisation,
-                               timing=timing)
+                               error_model=error_model)
     outages = [(s, OUTAGE_DURATION) for s in OUTAGE_STARTS]
     return flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss, init=init,
                    outages=outages)
+
+
+def load_cache() -> dict:
+    """The cached pyins runs (``{"runs": {seed: {...}}}``), empty when there are none."""
+    if ENSEMBLE_JSON.exists():
+        return json.loads(ENSEMBLE_JSON.read_text())
+    return {"runs": {}}
+
+
+def stochmod_runs(drive, cache: dict, **kwargs) -> dict[str, tuple[np.ndarray, dict]]:
+    """stochmod's per-outage maximum horizontal error (m) and state before each outage
+    (:func:`states_before_outages`) for every cached seed, started from the same initial error
+    as pyins' run of that seed. `kwargs` go to ``run_stochmod``."""
+    out = {}
+    for seed, run in cache["runs"].items():
+        result = run_stochmod(drive, velocity=False, initial_error=run["initial_error"],
+                              lever_arm=LEVER_ARM, **kwargs)
+        out[seed] = (np.array(max_outage_errors(result.time, result.lat, result.lon,
+                                                drive.reference, drive.t0)),
+                     states_before_outages(result, drive))
+    return out
+
+
+def states_before_outages(result, drive) -> dict[str, list]:
+    """stochmod's state at the last epoch before each outage, in the units and keys of
+    ``states_at_outages`` of studies/nav_pyins_n380.py: attitude and velocity error against the
+    reference with their 1-sigma, and the estimated sensor errors per axis (gyro deg/h, accel
+    m/s^2)."""
+    out: dict[str, list] = {k: [] for k in ("rph_error_deg", "vel_error_m_s", "rph_sd_deg",
+                                            "vel_sd_m_s", "gyro_bias_deg_h", "accel_bias_m_s2")}
+    for start in OUTAGE_STARTS:
+        t = drive.t0 + start
+        i = int(np.searchsorted(result.time, t)) - 1
+        ref = drive.reference.at(result.time[i:i + 1])
+        err = result.rph[i] - ref.rph[0]
+        err[2] = (err[2] + 180.0) % 360.0 - 180.0
+        e = int(np.searchsorted(result.epoch_time, t)) - 1
+        out.setdefault("pva_before", []).append(
+            [float(result.time[i]), float(result.lat[i]), float(result.lon[i]),
+             float(result.height[i]), *result.vel_ned[i].tolist(), *result.rph[i].tolist()])
+        out["rph_error_deg"].append(err.tolist())
+        out["vel_error_m_s"].append((result.vel_ned[i] - ref.vel_ned[0]).tolist())
+        out["rph_sd_deg"].append(result.sd_rph[i].tolist())
+        out["vel_sd_m_s"].append(result.sd_velocity[i].tolist())
+        out["gyro_bias_deg_h"].append((np.degrees(result.sensor_errors[e, :3]) * 3600).tolist())
+        out["accel_bias_m_s2"].append(result.sensor_errors[e, 3:].tolist())
+    return out
+
+
+def summary(ours: dict[str, np.ndarray], cache: dict) -> dict[str, np.ndarray]:
+    """Per-outage mean, sd and standard error of both filters and of the paired difference
+    (stochmod - pyins) over the seeds both have."""
+    seeds = sorted(ours, key=int)
+    a = np.array([ours[s] for s in seeds])
+    b = np.array([cache["runs"][s]["max_horizontal_error_m"] for s in seeds])
+    n = len(seeds)
+    out = {"n": np.array(n)}
+    for name, x in (("stochmod", a), ("pyins", b), ("difference", a - b)):
+        sd = x.std(axis=0, ddof=1) if n > 1 else np.full(x.shape[1], np.nan)
+        out[f"{name}_mean"], out[f"{name}_sd"], out[f"{name}_se"] = x.mean(0), sd, sd / np.sqrt(n)
+    return out
+
+
+def verdict(s: dict[str, np.ndarray], margin: float = 2.0) -> list[str]:
+    """Per outage, from the paired difference stochmod - pyins: ``"better"`` when its mean is
+    below zero by more than `margin` standard errors, ``"worse"`` when above by more, else
+    ``"not resolved"`` (no difference beyond the ensemble's standard error)."""
+    mean, se = s["difference_mean"], s["difference_se"]
+    return ["better" if m + margin * e < 0 else "worse" if m - margin * e > 0
+            else "not resolved" for m, e in zip(mean, se)]

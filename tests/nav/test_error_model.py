@@ -21,27 +21,19 @@ def _to_modified(P: np.ndarray, v: np.ndarray) -> np.ndarray:
     return M @ P @ M.T
 
 
-def _psi_exact(P: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """``G P G'`` with G the identity but the left Jacobian of SO(3) at the attitude correction."""
-    G = np.eye(P.shape[0])
-    G[6:9, 6:9] = nf._left_jacobian(dx[6:9])
-    return G @ P @ G.T
-
-
 @pytest.mark.parametrize("error_model", nf.ERROR_MODELS)
 def test_feedback_holds_the_covariance_of_its_own_states(truth, clean_imu, monkeypatch,
                                                          error_model):
-    """Across every feedback of a 30 s run, "psi" keeps P of (dr, dv, psi), "psi-exact" maps it
-    by its reset Jacobian, and "modified-phi" keeps P of (dr, dv - v_hat x psi, psi) while v_hat
-    moves by the velocity correction; the corrections are large enough that the invariants
-    exclude each other."""
+    """Across every feedback of a 30 s run, "psi" keeps P of (dr, dv, psi) and "modified-phi"
+    keeps P of (dr, dv - v_hat x psi, psi) while v_hat moves by the velocity correction; the
+    corrections are large enough that the invariants exclude each other."""
     seen = []
     real = nf._Run._feedback
 
     def spy(self, dx):
         before = (self.P.copy(), np.array(self.mech.v))
         real(self, dx)
-        seen.append((*before, self.P.copy(), np.array(self.mech.v), dx.copy()))
+        seen.append((*before, self.P.copy(), np.array(self.mech.v)))
 
     monkeypatch.setattr(nf._Run, "_feedback", spy)
     imu, gnss, init, _ = _emulate(truth, clean_imu, 3)
@@ -49,21 +41,19 @@ def test_feedback_holds_the_covariance_of_its_own_states(truth, clean_imu, monke
     _filter(error_model=error_model).run(imu.time[sel], imu.gyro[sel], imu.accel[sel],
                                          kind="increment", gnss=gnss, init=init)
     assert len(seen) >= 50  # position and velocity fixes at 1 Hz
-    moved = max(np.abs(v1 - v0).max() for _, v0, _, v1, _ in seen)
+    moved = max(np.abs(v1 - v0).max() for _, v0, _, v1 in seen)
     assert moved > 1e-3  # m/s: the reset terms are not negligible
 
-    def kept(P0, v0, P1, v1, dx, model):
+    def kept(P0, v0, P1, v1, model):
         if model == "psi":
             a, b = P0, P1
-        elif model == "psi-exact":
-            a, b = _psi_exact(P0, dx), P1
         else:
             a, b = _to_modified(P0, v0), _to_modified(P1, v1)
         sa = np.sqrt(np.outer(np.diag(a), np.diag(a)))
         return np.abs(b / sa - a / sa).max()
 
-    for P0, v0, P1, v1, dx in seen:
-        assert kept(P0, v0, P1, v1, dx, error_model) < 1e-12
+    for P0, v0, P1, v1 in seen:
+        assert kept(P0, v0, P1, v1, error_model) < 1e-12
     # the other invariants fail on the largest corrections: the check tells the models apart
     for other in set(nf.ERROR_MODELS) - {error_model}:
         assert max(kept(*s, other) for s in seen) > 1e-4, other
@@ -71,9 +61,9 @@ def test_feedback_holds_the_covariance_of_its_own_states(truth, clean_imu, monke
 
 @pytest.mark.slow
 def test_other_error_models_are_honest_and_close_to_psi(truth, clean_imu):
-    """Seeded emulations with the filter's own error model: the psi-exact and modified-phi
-    filters' average NEES over runs inside the 95% band, and their trajectories within a
-    fraction of a sigma of the psi filter's (they differ at second order)."""
+    """Seeded emulations with the filter's own error model: the modified-phi filter's average
+    NEES over runs inside the 95% band, and its trajectory within a fraction of a sigma of the
+    psi filter's (they differ at second order)."""
     runs = 3
     others = [m for m in nf.ERROR_MODELS if m != "psi"]
     nees, gaps = {m: [] for m in others}, {m: [] for m in others}
@@ -141,17 +131,6 @@ def _nominal(run: nf._Run, e: np.ndarray, modified: bool) -> None:
     m.q = tuple(frames.dcm_to_quat(R.T @ frames.rph_to_dcm(_TRUTH["rph"])))
 
 
-def _error_after(run: nf._Run, e: np.ndarray, e_hat: np.ndarray) -> np.ndarray:
-    """The filter's error (dr, dv, psi) after feeding back `e_hat` (its own states) when the
-    error before it is `e` (dr, dv, psi)."""
-    _nominal(run, e, modified=False)
-    run.P = np.eye(run.n)
-    run._feedback(np.r_[e_hat, np.zeros(run.n - 9)])
-    m = run.mech
-    rows = np.array([[m.lat, m.lon, m.h, *m.v, *m.q]])
-    return nf.nav_errors(_truth(), rows, np.array([0.0]))[0]
-
-
 E_HAT = np.array([4.0, -3.0, 2.0, 0.4, -0.3, 0.2, 0.02, -0.03, 0.08])
 
 
@@ -175,28 +154,3 @@ def test_feedback_injects_the_estimate_of_its_own_error_exactly(error_model):
     np.testing.assert_allclose(after[:3], 0.0, atol=1e-4)  # m
     np.testing.assert_allclose(after[3:6], 0.0, atol=1e-9)  # m/s
     np.testing.assert_allclose(after[6:9], 0.0, atol=1e-12)  # rad
-
-
-def test_psi_exact_reset_is_the_jacobian_of_the_feedback():
-    """error_model="psi-exact": the reset P <- G P G' uses G = d(error after)/d(error before)
-    at the applied correction, checked by central differences of the filter's own feedback
-    (with the exact error definitions of nav_errors); "psi"'s G = I misses it by |psi_hat|/2."""
-    run = _run("psi-exact")
-    h = np.array([1e-3] * 3 + [1e-4] * 3 + [1e-6] * 3)
-    G = np.empty((9, 9))
-    for i in range(9):
-        d = np.zeros(9)
-        d[i] = h[i]
-        G[:, i] = (_error_after(run, E_HAT + d, E_HAT) - _error_after(run, E_HAT - d, E_HAT)
-                   ) / (2 * h[i])
-    run.P = np.eye(run.n)
-    _nominal(run, E_HAT, modified=False)
-    run._feedback(np.r_[E_HAT, np.zeros(run.n - 9)])
-    # P = I before, so P after = G G' of the filter's reset: compare with the differences (the
-    # position rows of the true G differ from I by |dr_hat| / R ~ 1e-6, the radii of curvature)
-    used = run.P[:9, :9]
-    np.testing.assert_allclose(used, G @ G.T, atol=5e-6)
-    assert np.abs(G - np.eye(9)).max() > 0.5 * np.linalg.norm(E_HAT[6:9]) * 0.9
-    np.testing.assert_allclose(G[6:9, 6:9], nf._left_jacobian(E_HAT[6:9]), atol=1e-7)
-    np.testing.assert_allclose(G[:6], np.eye(9)[:6], atol=1e-5)
-    np.testing.assert_allclose(G[6:9, :6], 0.0, atol=1e-5)

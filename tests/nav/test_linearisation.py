@@ -1,4 +1,5 @@
-"""The covariance step's linearisation point and a fix's timing (stochmod.nav.filter notes).
+"""The covariance step's linearisation point and the time a fix refers to (stochmod.nav.filter
+notes).
 
 The exact transition of the error state over a step is the time-ordered exponential of the
 time-varying F along the trajectory; the filter freezes F over the step. Frozen at the middle
@@ -12,10 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from scipy.linalg import expm
 
-from stochmod.core.errors import InputError
 from stochmod.nav import LooselyCoupledFilter, frames
 from stochmod.nav.filter import error_dynamics, midpoint_pva
 
@@ -91,26 +90,19 @@ def test_midpoint_pva_is_the_state_in_the_middle_to_second_order():
         assert hgt == HEIGHT
 
 
-def test_linearisation_and_timing_options_are_checked():
-    for kw in ({"linearisation": "start"}, {"timing": "late"}):
-        with pytest.raises(InputError, match=next(iter(kw))):
-            LooselyCoupledFilter(GYRO, ACCEL, **kw)
-
-
-@pytest.mark.parametrize("timing", ["fix", "epoch"])
-def test_a_fix_between_imu_epochs_measures_the_error_at_its_own_time(timing):
+def test_a_fix_between_imu_epochs_measures_the_error_at_its_own_time():
     """A vehicle at rest, estimated moving at DV (m/s) with its position right at the filter
-    epoch t_k: its interpolated position at a fix LAG before t_k is off by -LAG DV. With
-    timing="fix" (H (I - lag F)) an exact fix there reveals the velocity error, and the
-    feedback removes it; "epoch" reads the same innovation as a position error at t_k, which
-    the covariance says is known, and leaves the velocity wrong."""
+    epoch t_k: its interpolated position at a fix LAG before t_k is off by -LAG DV. The
+    measurement matrix at the fix's own time, H (I - lag F), lets an exact fix there reveal the
+    velocity error, and the feedback removes it (read as a position error at t_k, which the
+    covariance says is known, the same innovation would leave the velocity wrong)."""
     import stochmod.nav.filter as nf
     from stochmod.nav import earth
     from stochmod.nav.measurements import GnssPosition
 
     lat, lon, hgt = 37.3, -122.1, 40.0
     dv, h, lag = np.array([1.0, -0.5, 0.2]), 0.01, 0.009  # m/s, s, s
-    flt = LooselyCoupledFilter(GYRO, ACCEL, timing=timing)
+    flt = LooselyCoupledFilter(GYRO, ACCEL)
     init = nf.InitialState(lat, lon, hgt, dv, (0.0, 0.0, 30.0))
     z = np.zeros((1, 3))
     run = nf._Run(flt, nf._Sensors(flt.models, h, 0.0, 0.0), init, np.array([0.0, h]),
@@ -125,10 +117,6 @@ def test_a_fix_between_imu_epochs_measures_the_error_at_its_own_time(timing):
     run.t_prev, run.t_now = 0.0, h
     run.t_meas = h - lag
     run._update(GnssPosition(lat, lon, hgt, 1e-5), run._snapshot(h - lag, prev, np.zeros(3)))
-    left = np.array(run.mech.v)
-    if timing == "fix":
-        # the residual (measured 1.2e-6 m/s): R / (lag^2 sigma_v^2) of it and the O(lag^2)
-        # terms of the transition over the lag
-        np.testing.assert_allclose(left, 0.0, atol=1e-5)
-    else:
-        np.testing.assert_allclose(left, dv, atol=1e-6)
+    # the residual (measured 1.2e-6 m/s): R / (lag^2 sigma_v^2) of it and the O(lag^2) terms
+    # of the transition over the lag
+    np.testing.assert_allclose(np.array(run.mech.v), 0.0, atol=1e-5)

@@ -1,11 +1,10 @@
-"""The onavdata HGuide n380 drive as bench/_n380.py converts it: the frame, the time convention
+"""The onavdata HGuide n380 drive as tests/nav/_n380.py converts it: the frame, the time convention
 of the increments and the GNSS fixes are checked against the unit's own INS solution, and the
 drive survives the round trip through the ``navigate`` CSV formats."""
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +13,9 @@ import pytest
 from stochmod.nav import earth, frames
 from stochmod.nav.logs import read_gnss_csv, read_imu_csv
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
-from _n380 import (load_n380, max_outage_errors,  # noqa: E402
-                   onavdata_missing_reason, run_stochmod, write_navigate_csvs)
+from ._n380 import (ENSEMBLE_JSON, LEVER_ARM, PEER_JSON, load_n380, max_outage_errors,
+                    onavdata_missing_reason, run_stochmod, stochmod_runs, summary, verdict,
+                    write_navigate_csvs)
 
 pytestmark = pytest.mark.skipif(onavdata_missing_reason() is not None,
                                 reason=str(onavdata_missing_reason()))
@@ -87,15 +86,12 @@ def test_navigate_csv_round_trip(drive, tmp_path: Path) -> None:
         np.testing.assert_array_equal(got, want)  # %.17g round-trips doubles exactly
 
 
-PEER = Path(__file__).resolve().parents[2] / "bench" / "reference" / "nav_pyins_n380.json"
 # A single drive: the max error in an outage is one realisation, and the two filters differ
 # in their error formulation, discretisation and update timing, so "no worse" is decided over
 # seeded starts (test_real_drive_over_seeded_starts_beside_pyins). This single start holds the
 # measured figures with a margin: the sum over the three outages at most SUM_SLACK above pyins'
-# and no outage more than RELATIVE_SLACK worse. Measured with the defaults (midpoint
-# linearisation, each fix at its own time): sums 0.906 (position) and 1.011 (position +
-# velocity) of pyins', the worst outage 1.061 of pyins' (0.914, 0.997 and 1.057 with F at the
-# end of each step and each fix at the next IMU epoch).
+# and no outage more than RELATIVE_SLACK worse. Measured: sums 0.906 (position) and 1.011
+# (position + velocity) of pyins', the worst outage 1.061 of pyins'.
 SUM_SLACK = 0.02
 RELATIVE_SLACK = 0.10
 
@@ -104,8 +100,8 @@ RELATIVE_SLACK = 0.10
 @pytest.mark.parametrize("mode", ["position", "position_velocity"])
 def test_real_drive_beside_pyins(drive, mode) -> None:
     """stochmod's 21-state filter with pyins' example settings on the same increments, GNSS and
-    start as pyins' run in bench/reference/nav_pyins_n380.json (bench/nav_pyins_n380.py)."""
-    peer = json.loads(PEER.read_text())
+    start as pyins' run in tests/nav/reference/nav_pyins_n380.json (studies/nav_pyins_n380.py)."""
+    peer = json.loads(PEER_JSON.read_text())
     theirs = np.array(peer["runs"][f"raw/{mode}"]["max_horizontal_error_m"])
     result = run_stochmod(drive, velocity=mode == "position_velocity",
                           initial_error=peer["initial_error"])
@@ -118,15 +114,14 @@ def test_real_drive_beside_pyins(drive, mode) -> None:
 
 
 # The lever arm fitted from the data (docs/navigation.md, "Real drive"): with it both filters
-# reproduce the pattern of the issue's pyins figures. One drive is one realisation, and the
-# start alone moves the outage-2 maximum by metres, so the comparison is over an ensemble of the
-# SAME seeded random starts (bench/nav_n380_ensemble.py; pyins' runs, ~10 min each here, are
-# cached in bench/reference/nav_pyins_n380_ensemble.json by that script).
-LEVER_ARM = (-1.3, 0.0, 0.0)
-ENSEMBLE = PEER.parent / "nav_pyins_n380_ensemble.json"
+# reproduce the pattern of the pyins figures the comparison set out to match (85, 6.6 and ~18 m
+# with position updates). One drive is one realisation, and the start alone moves the outage-2
+# maximum by metres, so the comparison is over an ensemble of the SAME seeded random starts
+# (studies/nav_n380_ensemble.py; pyins' runs, ~10 min each here, are cached in
+# tests/nav/reference/nav_pyins_n380_ensemble.json by that script).
 # Outages 2 and 3: stochmod is worse than pyins beyond the ensemble's standard error by about a
 # metre (docs/navigation_real_drive.md, "Over seeded starts"), so "no worse" is not asserted
-# there (measured with the defaults: +0.20 and +0.79 m; the states before every outage of every
+# there (measured: +0.20 and +0.79 m; the states before every outage of every
 # seed at most 0.35 of pyins' sigma from pyins', under the 0.5 asserted); the gap is held below
 # GAP_BOUND (m) so that it cannot grow unnoticed. Its cause is the
 # reset ("The cause"): with pyins' one the gap goes (test_real_drive_with_pyins_reset_...).
@@ -139,9 +134,7 @@ def test_real_drive_over_seeded_starts_beside_pyins(drive) -> None:
     per outage the paired difference of the maximum horizontal error (stochmod - pyins) over
     the seeds, and before every outage of every seed the two filters' attitude error, gyro and
     accelerometer biases within half of pyins' own 1-sigma."""
-    from nav_n380_ensemble import stochmod_runs, summary, verdict
-
-    cache = json.loads(ENSEMBLE.read_text())
+    cache = json.loads(ENSEMBLE_JSON.read_text())
     assert cache["lever_arm_m"] == list(LEVER_ARM) and cache["mode"] == "position"
     assert len(cache["runs"]) >= 8
     runs = stochmod_runs(drive, cache)
@@ -164,12 +157,10 @@ def test_real_drive_over_seeded_starts_beside_pyins(drive) -> None:
 # With pyins' reset and feedback (error_model="modified-phi", docs/navigation_real_drive.md,
 # "The cause" and "The residual of modified-phi") stochmod reproduces pyins' runs: per seed and
 # outage within MODIFIED_SLACK of pyins' maximum (plus half a metre), and before every outage
-# the attitude error and both biases within MODIFIED_STATE_SD of pyins' own 1-sigma. Measured
-# with the defaults (exact feedback, midpoint linearisation, each fix at its own time): at most
-# 0.148 m, 0.21 of this error allowance, and 0.008 sigma (margins of 4.7 and 3); the psi model
-# misses both on these seeds (errors up to 11.4 m apart, states up to 0.34 sigma from pyins').
-# Before the midpoint linearisation and fix timing: 0.34 m and 0.020 sigma.
-# Over all the cached seeds this is also the issue's "no worse than pyins per outage": no
+# the attitude error and both biases within MODIFIED_STATE_SD of pyins' own 1-sigma. Measured:
+# at most 0.148 m, 0.21 of this error allowance, and 0.008 sigma (margins of 4.7 and 3); the psi
+# model misses both on these seeds (errors up to 11.4 m apart, states up to 0.34 sigma from
+# pyins'). Over all the cached seeds this is also "no worse than pyins per outage": no
 # outage where stochmod is worse beyond 2 standard errors of the paired difference (measured,
 # 10 seeds: +0.05 +- 0.03, -0.01 +- 0.01 and -0.05 +- 0.01 m: not resolved, not resolved,
 # better).
@@ -180,9 +171,7 @@ MODIFIED_STATE_SD = 0.025
 
 @pytest.mark.slow
 def test_real_drive_with_pyins_reset_reproduces_pyins(drive) -> None:
-    from nav_n380_ensemble import stochmod_runs, summary, verdict
-
-    cache = json.loads(ENSEMBLE.read_text())
+    cache = json.loads(ENSEMBLE_JSON.read_text())
     assert len(cache["runs"]) >= 8
     runs = stochmod_runs(drive, cache, error_model="modified-phi")
     s = summary({seed: r[0] for seed, r in runs.items()}, cache)
