@@ -26,6 +26,7 @@ from stochmod.workflows.fleet import SerialExecutor, UnitSteps, run_fleet
 from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult, select
+from stochmod.fit.verdict import verdict
 from stochmod.io.recording import Recording
 from stochmod.core.model import augment_axes
 from stochmod.core.tables import format_table
@@ -134,6 +135,7 @@ def calibration_report(results: list[SelectionResult], rec: Recording, freq: flo
             "ranking": [attrs.asdict(r) for r in sel.ranking],
             "augmentation": _block_dict(best.model.augment(dt)),
             "robust": sel.empirical.robust_info(),
+            "verdict": verdict(best, candidates=sel.ranking).to_dict(),
         }
     imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
     return {
@@ -474,6 +476,10 @@ def _outputs(args: argparse.Namespace, segments: list[Recording], freq: float, d
                        [[s.column, s.ranking[0].model, s.ranking[1].model if len(s.ranking) > 1 else "-",
                          s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
                         for s in results]))
+    print()
+    print(format_table(["column", "verdict"],
+                       [[sel.column, verdict(sel.best, candidates=sel.ranking).summary()]
+                        for sel in results], title="verdict per axis (docs/calibrate.md)"))
     for sel in results:
         if sel.empirical.contamination is not None:
             print(f"\n{sel.column}: {sel.empirical.contamination.summary()}")
