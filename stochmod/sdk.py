@@ -15,7 +15,8 @@ stochmod. What it finds here, by plugin point (docs/plugin_contract.md):
   :class:`WeightingMatrix`;
 - combiners (``stochmod_combiners``): :class:`CombinationResult`, :func:`as_sensor_array`,
   :func:`residuals_from_mean`, and the estimators a combiner may build on (:func:`wvar`,
-  :func:`fit_arma`, :func:`select_arma`, :func:`fit_garch`, :func:`select_garch`).
+  :func:`fit_arma`, :func:`select_arma`, :func:`fit_garch`, :func:`select_garch`,
+  :func:`prepare_garch`).
 
 Names whose modules import scipy.signal or scipy.stats are imported on first access, so that
 loading a plugin stays cheap.
@@ -167,7 +168,14 @@ __all__ = [
     "GarchFit",
     "fit_garch",
     "select_garch",
+    "prepare_garch",
 ]
+
+
+def prepare_garch() -> None:
+    """Load the compiled GARCH likelihood pass in this process now, so that worker processes
+    forked afterwards inherit it (:func:`stochmod.fit.garch_jit.prepare`)."""
+    importlib.import_module("stochmod.fit.garch_jit").prepare()
 
 
 def __getattr__(name: str) -> Any:

@@ -220,3 +220,15 @@ def test_edges_are_resolved(tmp_path: Path, code: str, target: str, lazy: bool, 
     (edge,) = _edges(path, root, "stochmod")
     assert (edge.source, edge.target, edge.lazy, edge.type_only) == ("stochmod.fit.probe", target,
                                                                       lazy, type_only)
+
+
+@pytest.mark.parametrize("root", [REPO / "plugins", REPO / "docs" / "examples" / "third_party_plugin"],
+                         ids=["plugins", "third_party_example"])
+def test_plugins_import_only_the_sdk_from_stochmod(root: Path) -> None:
+    """A plugin module imports from stochmod only ``stochmod.sdk`` (and its own package)."""
+    paths = sorted(root.rglob("*.py"))
+    assert paths
+    bad = [f"{e.source}:{e.line} imports {e.target}"
+           for path in paths for e in _edges(path, root, "stochmod")
+           if e.target != "stochmod.sdk" and e.target.split(".")[0] not in e.source.split(".")]
+    assert not bad, "\n".join(bad)

@@ -38,14 +38,26 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import as_signal, check_freq, check_positive_int
-from stochmod.core.coefficients import check_coefficients
-from stochmod.core.errors import AccuracyWarning, DomainError, InputError, SpecError
-from stochmod.core.geometric import WV_PEAK_X, haar_wv_geometric, haar_wv_geometric_parts
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.params import Parameter, get_domain
-from stochmod.core.process import PhysicalValue, Process, as_generator
-from stochmod.core.statespace import StateSpaceBlock
+from stochmod.sdk import (
+    WV_PEAK_X,
+    AccuracyWarning,
+    DomainError,
+    InputError,
+    Parameter,
+    PhysicalValue,
+    Process,
+    SpecError,
+    StateSpaceBlock,
+    as_generator,
+    as_signal,
+    check_coefficients,
+    check_freq,
+    check_positive_int,
+    get_domain,
+    haar_wv_geometric,
+    haar_wv_geometric_parts,
+    hookimpl,
+)
 from stochmod_ar._jacobian import haar_wv_phi_jacobian
 from stochmod_ar._roots import ARRoots, ar_roots
 

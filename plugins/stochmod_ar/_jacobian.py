@@ -26,8 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stochmod.core.geometric import haar_wv_geometric, haar_wv_geometric_dlog
-
+from stochmod.sdk import haar_wv_geometric, haar_wv_geometric_dlog
 from stochmod_ar._roots import ARRoots
 
 __all__ = ["haar_wv_phi_jacobian"]

@@ -43,7 +43,7 @@ from functools import lru_cache
 import attrs
 import numpy as np
 
-from stochmod_ar._dd import DD, CDD, cdd_mul, dd_add, dd_mul, dd_neg, haar_wv_dd, two_sum
+from stochmod_ar._dd import CDD, DD, cdd_mul, dd_add, dd_mul, dd_neg, haar_wv_dd, two_sum
 
 __all__ = ["ARRoots", "ar_roots", "CLUSTER_ETA"]
 
@@ -160,7 +160,7 @@ class ARRoots:
     @staticmethod
     def sign_log(anchor: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(sign, u)`` with ``z = sign * exp(-u)`` for points ``z = anchor + w``."""
-        from stochmod.core.geometric import log1p_complex
+        from stochmod.sdk import log1p_complex
 
         anchor = np.asarray(anchor, dtype=np.float64)
         w = np.asarray(w, dtype=np.complex128)

@@ -23,9 +23,13 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.core.checks import check_positive_int
-from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.plugin.hookspecs import hookimpl
+from stochmod.sdk import (
+    CombinationResult,
+    as_sensor_array,
+    check_positive_int,
+    hookimpl,
+    residuals_from_mean,
+)
 
 __all__ = ["AveragedVolatility", "moving_sum", "stochmod_combiners"]
 

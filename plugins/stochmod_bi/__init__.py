@@ -7,8 +7,7 @@ the Nyquist frequency, built as a log-uniform mixture of Gauss-Markov processes 
 
 from __future__ import annotations
 
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.process import Process
+from stochmod.sdk import Process, hookimpl
 
 from ._circulant import circulant_embedding
 from ._gm_approx import GMApproximation

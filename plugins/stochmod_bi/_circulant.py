@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy import fft
 
-from stochmod.core.errors import EstimationError
+from stochmod.sdk import EstimationError
 
 __all__ = ["circulant_embedding"]
 

@@ -15,8 +15,7 @@ import attrs
 import numpy as np
 from scipy.optimize import least_squares, linprog
 
-from stochmod.core.errors import EstimationError
-from stochmod.core.tables import format_table
+from stochmod.sdk import EstimationError, format_table
 
 from ._mixture import D_HI, ar1_wv, band, unit_wv
 
@@ -116,7 +115,7 @@ class GMApproximation:
 
     def gms(self) -> list:
         """The approximation as registered ``GM(beta, sigma2)`` processes (needs the GM plugin)."""
-        from stochmod.plugin.registry import get_process
+        from stochmod.sdk import get_process
 
         gm = get_process("GM")
         return [gm(beta=float(b), sigma2=float(s)) for b, s in zip(self.beta, self.sigma2)]

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import exp1
 
-from stochmod.core.geometric import haar_wv_geometric, haar_wv_geometric_dlog
+from stochmod.sdk import haar_wv_geometric, haar_wv_geometric_dlog
 
 __all__ = ["D_HI", "band", "mixture_nodes", "ar1_wv", "ar1_spectrum", "unit_wv", "unit_wv_d_lo",
            "unit_spectrum", "unit_autocovariance"]

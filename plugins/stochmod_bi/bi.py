@@ -11,13 +11,22 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import check_freq, check_positive_int
-from stochmod.core.coefficients import check_coefficients
-from stochmod.core.errors import DomainError, InputError, SpecError
-from stochmod.core.params import Parameter
-from stochmod.core.process import PhysicalValue, Process, as_generator
-from stochmod.core.statespace import ContinuousBlock
-from stochmod.core.units import BI_FACTOR, bi_from_floor, to_si
+from stochmod.sdk import (
+    BI_FACTOR,
+    ContinuousBlock,
+    DomainError,
+    InputError,
+    Parameter,
+    PhysicalValue,
+    Process,
+    SpecError,
+    as_generator,
+    bi_from_floor,
+    check_coefficients,
+    check_freq,
+    check_positive_int,
+    to_si,
+)
 
 from ._circulant import circulant_embedding
 from ._gm_approx import GMApproximation, default_levels, fit_unit_gms

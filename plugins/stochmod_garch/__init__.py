@@ -23,14 +23,18 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.core.checks import check_positive_int
-from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.core.errors import InputError
-from stochmod.plugin.hookspecs import hookimpl
+from stochmod.sdk import (
+    CombinationResult,
+    InputError,
+    as_sensor_array,
+    check_positive_int,
+    hookimpl,
+    prepare_garch,
+    residuals_from_mean,
+)
 
 if TYPE_CHECKING:  # the estimators are imported where they run (they import scipy.signal)
-    from stochmod.fit.arma import ArmaFit
-    from stochmod.fit.garch import GarchFit
+    from stochmod.sdk import ArmaFit, GarchFit
 
 __all__ = ["GarchCombiner", "SensorVolatility", "stochmod_combiners"]
 
@@ -65,8 +69,7 @@ def _fit_axis(r: np.ndarray, sensor: int, axis: int | None, arma: Any, garch: An
               max_order: int, lags: int, select_samples: int
               ) -> tuple[np.ndarray, np.ndarray, SensorVolatility]:
     """Conditional mean (T,), conditional variance (T,) and the fits of one residual series."""
-    from stochmod.fit.arma import fit_arma, select_arma
-    from stochmod.fit.garch import fit_garch, select_garch
+    from stochmod.sdk import fit_arma, fit_garch, select_arma, select_garch
 
     arma_order = _orders(arma, "arma")
     if arma_order is None:
@@ -118,8 +121,6 @@ class GarchCombiner:
             Processes fitting the sensors (and axes) in parallel; None or 1: one after another
             in this process. The fits are independent, so the result is the serial one.
         """
-        from stochmod.fit import garch_jit
-
         select_samples = check_positive_int(select_samples, name="select_samples", minimum=100)
         workers = 1 if workers is None else check_positive_int(workers, name="workers")
         x = as_sensor_array(x, min_length=100)
@@ -140,7 +141,7 @@ class GarchCombiner:
             # the worker processes inherit this one's libraries and their settings (BLAS
             # threads included), so their sums round as here: the serial result exactly;
             # and the compiled GARCH pass, loaded once here
-            garch_jit.prepare()
+            prepare_garch()
             with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(cols))) as pool:
                 outs = list(pool.map(_fit_axis, *zip(*args)))
         else:

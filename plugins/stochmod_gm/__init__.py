@@ -32,22 +32,29 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import as_signal, check_freq, check_positive_int
-from stochmod.core.coefficients import check_coefficients
-from stochmod.core.errors import DomainError, InputError
-from stochmod.core.geometric import (
+from stochmod.sdk import (
     AV_PEAK_VALUE,
+    BI_FACTOR,
     POSITIVE_ROWS_KERNEL_MAX_U,
     WV_PEAK_X,
+    ContinuousBlock,
+    DomainError,
+    InputError,
+    Parameter,
+    PhysicalValue,
+    Process,
+    as_generator,
+    as_signal,
+    bi_floor,
+    bi_from_floor,
+    check_coefficients,
+    check_freq,
+    check_positive_int,
     haar_wv_positive,
     haar_wv_positive_rows,
+    hookimpl,
     positive_rows_kernel,
 )
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.params import Parameter
-from stochmod.core.process import PhysicalValue, Process, as_generator
-from stochmod.core.statespace import ContinuousBlock
-from stochmod.core.units import BI_FACTOR, bi_floor, bi_from_floor
 from stochmod_gm.discrete import (
     GMDiscrete,
     ar1_to_gm,

@@ -16,10 +16,16 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import check_freq, checked_values, scalar_or_array
-from stochmod.core.errors import DomainError, InputError
-from stochmod.core.tables import format_table
-from stochmod.core.units import BI_FACTOR, bi_floor
+from stochmod.sdk import (
+    BI_FACTOR,
+    DomainError,
+    InputError,
+    bi_floor,
+    check_freq,
+    checked_values,
+    format_table,
+    scalar_or_array,
+)
 
 __all__ = [
     "GMMethod",

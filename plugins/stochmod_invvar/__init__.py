@@ -24,13 +24,18 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.core.checks import check_freq
-from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.core.errors import EstimationError, InputError
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.model import Model
-from stochmod.plugin.spec import model_from_spec
-from stochmod.empirical.wavelet_variance import wvar
+from stochmod.sdk import (
+    CombinationResult,
+    EstimationError,
+    InputError,
+    Model,
+    as_sensor_array,
+    check_freq,
+    hookimpl,
+    model_from_spec,
+    residuals_from_mean,
+    wvar,
+)
 
 __all__ = ["InverseVariance", "calibration_models", "three_cornered_hat", "stochmod_combiners"]
 

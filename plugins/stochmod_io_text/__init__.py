@@ -6,8 +6,7 @@ dependency: numpy reads the binary formats, the standard library the text ones.
 
 from __future__ import annotations
 
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.io.recording import Reader
+from stochmod.sdk import Reader, hookimpl
 from stochmod_io_text.numpy_files import NpyReader, NpzReader
 from stochmod_io_text.text import TextReader
 

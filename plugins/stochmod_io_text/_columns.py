@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import re
 
-from stochmod.core.errors import InputError
-from stochmod.core.units import parse_unit
+from stochmod.sdk import InputError, parse_unit
 
 __all__ = ["TIME_NAMES", "split_header", "find_time_column", "time_scale"]
 

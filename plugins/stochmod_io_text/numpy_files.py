@@ -8,9 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from stochmod.core.errors import InputError
-from stochmod.io.recording import Reader, Recording
-from stochmod.io.sensors import sensor_kind
+from stochmod.sdk import InputError, Reader, Recording, sensor_kind
 from stochmod_io_text._columns import find_time_column
 
 __all__ = ["NpyReader", "NpzReader"]

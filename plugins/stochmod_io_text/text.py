@@ -10,8 +10,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from stochmod.core.errors import InputError
-from stochmod.io.recording import Reader, Recording
+from stochmod.sdk import InputError, Reader, Recording
 from stochmod_io_text._columns import find_time_column, split_header, time_scale
 
 __all__ = ["TextReader"]

@@ -14,9 +14,13 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-from stochmod.redundant.combination import CombinationResult, as_sensor_array, residuals_from_mean
-from stochmod.core.errors import InputError
-from stochmod.plugin.hookspecs import hookimpl
+from stochmod.sdk import (
+    CombinationResult,
+    InputError,
+    as_sensor_array,
+    hookimpl,
+    residuals_from_mean,
+)
 
 __all__ = ["MeanCombiner", "stochmod_combiners"]
 

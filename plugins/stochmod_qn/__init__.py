@@ -31,12 +31,19 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import as_signal, check_freq, check_positive_int
-from stochmod.core.coefficients import check_coefficients
-from stochmod.core.errors import DomainError, InputError
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.params import Parameter
-from stochmod.core.process import PhysicalValue, Process, as_generator
+from stochmod.sdk import (
+    DomainError,
+    InputError,
+    Parameter,
+    PhysicalValue,
+    Process,
+    as_generator,
+    as_signal,
+    check_coefficients,
+    check_freq,
+    check_positive_int,
+    hookimpl,
+)
 
 __all__ = ["QN", "stochmod_processes"]
 

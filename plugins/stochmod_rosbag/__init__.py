@@ -18,9 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from stochmod.core.errors import InputError
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.io.recording import Reader, Recording, import_optional
+from stochmod.sdk import InputError, Reader, Recording, hookimpl, import_optional
 from stochmod_rosbag._imu_layout import decode
 
 __all__ = ["RosbagReader", "IMU_TYPE", "stochmod_readers"]

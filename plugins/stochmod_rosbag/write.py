@@ -9,8 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.errors import InputError, StochmodError
-from stochmod.io.recording import import_optional
+from stochmod.sdk import InputError, StochmodError, import_optional
 
 __all__ = ["write_imu_bag"]
 

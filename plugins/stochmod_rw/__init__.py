@@ -31,14 +31,21 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import as_signal, check_freq, check_positive_int
-from stochmod.core.coefficients import check_coefficients
-from stochmod.core.errors import InputError
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.params import Parameter
-from stochmod.core.process import PhysicalValue, Process, as_generator
-from stochmod.core.statespace import ContinuousBlock
-from stochmod.core.units import rw_density, rw_variance
+from stochmod.sdk import (
+    ContinuousBlock,
+    InputError,
+    Parameter,
+    PhysicalValue,
+    Process,
+    as_generator,
+    as_signal,
+    check_coefficients,
+    check_freq,
+    check_positive_int,
+    hookimpl,
+    rw_density,
+    rw_variance,
+)
 
 __all__ = ["RW", "stochmod_processes"]
 

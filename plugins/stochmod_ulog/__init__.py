@@ -26,9 +26,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from stochmod.core.errors import InputError
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.io.recording import Reader, Recording, import_optional
+from stochmod.sdk import InputError, Reader, Recording, hookimpl, import_optional
 
 __all__ = ["ULogReader", "IMU_TOPICS", "stochmod_readers"]
 

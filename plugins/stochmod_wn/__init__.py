@@ -15,14 +15,20 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stochmod.core.checks import check_freq
-from stochmod.core.coefficients import check_coefficients
-from stochmod.plugin.hookspecs import hookimpl
-from stochmod.core.params import Parameter
-from stochmod.core.process import PhysicalValue, Process, as_generator
-from stochmod.core.jit import AVAILABLE as _COMPILED
-from stochmod.core.jit import compiled
-from stochmod.core.units import wn_density
+from stochmod.sdk import (
+    JIT_AVAILABLE as _COMPILED,
+)
+from stochmod.sdk import (
+    Parameter,
+    PhysicalValue,
+    Process,
+    as_generator,
+    check_coefficients,
+    check_freq,
+    compiled,
+    hookimpl,
+    wn_density,
+)
 
 __all__ = ["WN", "stochmod_processes"]
 

@@ -18,7 +18,6 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-import stochmod
 from stochmod import sdk
 
 from stochmod_ma1.jsonl import JsonLinesReader
@@ -36,11 +35,11 @@ def _generator(rng: np.random.Generator | int) -> np.random.Generator:
         return rng
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
         return np.random.default_rng(int(rng))
-    raise stochmod.InputError(f"rng must be a numpy Generator or an integer seed, got {rng!r}")
+    raise sdk.InputError(f"rng must be a numpy Generator or an integer seed, got {rng!r}")
 
 
 @attrs.frozen
-class MA1(stochmod.Process):
+class MA1(sdk.Process):
     """First-order moving average ``X_t = e_t + theta e_{t-1}`` (a discrete-time family).
 
     Parameters
@@ -133,7 +132,7 @@ class MA1(stochmod.Process):
         """
         wv = np.asarray(wv, dtype=np.float64).reshape(-1)
         if wv.size < 2 or not np.all(np.isfinite(wv[:2])) or np.any(wv[:2] <= 0):
-            raise stochmod.InputError(
+            raise sdk.InputError(
                 f"MA1.start needs positive wavelet variances at levels 1 and 2, got {wv!r}")
         r = wv[1] / wv[0]
         theta = 0.0
@@ -169,7 +168,7 @@ class MA1(stochmod.Process):
 
 
 @sdk.hookimpl
-def stochmod_processes() -> list[type[stochmod.Process]]:
+def stochmod_processes() -> list[type[sdk.Process]]:
     """Register MA1."""
     return [MA1]
 

@@ -14,8 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
-import stochmod
-from stochmod.io.recording import Reader, Recording
+from stochmod.sdk import InputError, Reader, Recording
 
 __all__ = ["JsonLinesReader"]
 
@@ -35,11 +34,11 @@ class JsonLinesReader(Reader):
         if objects and set(objects[0]) == {"units"}:
             units = objects.pop(0)["units"]
         if not objects:
-            raise stochmod.InputError(f"{path} holds no samples")
+            raise InputError(f"{path} holds no samples")
         keys = [k for k in objects[0] if k != time_key]
         for lineno, obj in enumerate(objects, start=len(lines) - len(objects) + 1):
             if set(obj) != set(objects[0]):
-                raise stochmod.InputError(
+                raise InputError(
                     f"{path}: line {lineno} has keys {sorted(obj)}, expected {sorted(objects[0])}"
                 )
         data = np.array([[obj[k] for k in keys] for obj in objects], dtype=np.float64)

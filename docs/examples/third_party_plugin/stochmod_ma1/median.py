@@ -14,9 +14,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-import stochmod
 from stochmod import sdk
-from stochmod.redundant.combination import as_sensor_array
+from stochmod.sdk import as_sensor_array
 
 __all__ = ["MedianCombiner"]
 
@@ -32,7 +31,7 @@ class MedianCombiner:
     def combine(self, x: Any, **options: Any) -> sdk.CombinationResult:
         """Median over the sensors of `x` (n, T) or (n, T, 3); takes no options."""
         if options:
-            raise stochmod.InputError(f"the 'median' combiner takes no options, got {sorted(options)}")
+            raise sdk.InputError(f"the 'median' combiner takes no options, got {sorted(options)}")
         x = as_sensor_array(x, min_sensors=3)
         n = x.shape[0]
         order = np.argsort(x, axis=0, kind="stable")

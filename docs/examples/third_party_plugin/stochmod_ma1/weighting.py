@@ -13,9 +13,8 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 
-import stochmod
 from stochmod import sdk
-from stochmod.fit.weighting_plugins import Weighting, WeightingInput, WeightingMatrix
+from stochmod.sdk import Weighting, WeightingInput, WeightingMatrix
 
 __all__ = ["RelativeWeighting", "RELATIVE", "stochmod_weightings"]
 
@@ -32,7 +31,7 @@ class RelativeWeighting(Weighting):
         """The diagonal of inverse squared empirical WVs, levels 1..J."""
         nu = np.asarray(data.empirical.wv[: data.levels], dtype=float)
         if np.any(~(nu > 0)):
-            raise stochmod.InputError("the relative weighting needs a positive wavelet variance")
+            raise sdk.InputError("the relative weighting needs a positive wavelet variance")
         return WeightingMatrix(np.diag(1.0 / nu**2))
 
 
