@@ -15,7 +15,7 @@ read as rad/s (a static gyro's mean rate and noise are far below 1 rad/s).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import attrs
 import numpy as np
@@ -24,7 +24,7 @@ from stochmod.core.errors import InputError
 from stochmod.core.units import SENSORS, STANDARD_GRAVITY, kind_from_name, parse_unit
 
 __all__ = ["KINDS", "UNIT_SOURCES", "ColumnUnit", "sensor_kind", "declare_units",
-           "check_static_magnitudes", "unit_map", "GYRO_RATE_LIMIT",
+           "check_static_magnitudes", "GYRO_RATE_LIMIT",
            "RAW_MEAN_RATIO"]
 
 #: Sensor kinds of a column.
@@ -250,7 +250,3 @@ def check_static_magnitudes(data: np.ndarray, declared: Sequence[ColumnUnit]) ->
                 f"accelerometer column {declared[k].column!r} has noise of {rms:.3g} m/s^2 rms "
                 "at rest, above g: its unit is not the one given (--accel-unit UNIT)")
 
-
-def unit_map(declared: Sequence[ColumnUnit]) -> Mapping[str, str]:
-    """Column -> unit, for the columns whose unit is known."""
-    return {c.column: c.unit for c in declared if c.unit is not None}
