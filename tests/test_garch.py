@@ -127,6 +127,7 @@ def test_table2_scale_persistent_garch_is_recovered() -> None:
     x = simulate_garch(300_000, truth[0], [truth[1]], [truth[2]], seed=2010)
     fit = stochmod.fit_garch(x, 1, 1)
     assert fit.converged
+    assert type(fit.omega) is float and fit.omega == fit.params[0]  # a scalar is a float
     est = fit.params
     z = (est - np.array(truth)) / fit.std_errors
     assert np.all(np.abs(z) < 4), (est, fit.std_errors)
@@ -135,7 +136,7 @@ def test_table2_scale_persistent_garch_is_recovered() -> None:
     assert fit.loglikelihood >= ll_truth - 1e-6
     # conditional variances are the recursion's at the estimate, in the data's unit
     np.testing.assert_allclose(fit.conditional_variance,
-                               garch_variance(x, fit.omega[0], fit.alpha, fit.beta), rtol=1e-10)
+                               garch_variance(x, fit.omega, fit.alpha, fit.beta), rtol=1e-10)
     assert fit.lm_test.pvalue > 0.01  # no ARCH effect left in the standardized residuals
     assert "alpha0" in fit.summary() and "Engle LM" in fit.summary()
 

@@ -29,7 +29,7 @@ def test_a_coefficient_with_its_maximum_at_zero_is_held_there(garch11) -> None:
     gap = np.abs(big.params[[0, 1, 3]] - small.params)
     np.testing.assert_array_less(gap, 1e-3 * small.std_errors)
     # Kuhn-Tucker at the boundary: moving mass into alpha_2 from the others lowers the likelihood
-    nudged = np.concatenate([big.omega, big.alpha + [0.0, 1e-4], big.beta - 1e-4])
+    nudged = np.concatenate([[big.omega], big.alpha + [0.0, 1e-4], big.beta - 1e-4])
     nudged_ll = garch.garch_loglikelihood(garch11, nudged[0], nudged[1:3], nudged[3:])
     assert nudged_ll < big.loglikelihood
 

@@ -123,7 +123,7 @@ def _sensor_rows(column: str, res: CombinationResult, files: list[str]) -> list[
         sv = "-" if res.sensor_variance is None else float(np.mean(np.asarray(res.sensor_variance)[i]))
         if fit is not None:
             g = fit.garch
-            params = (f"ARMA{fit.arma.order} GARCH{g.order}: omega {g.omega[0]:.4g}, alpha "
+            params = (f"ARMA{fit.arma.order} GARCH{g.order}: omega {g.omega:.4g}, alpha "
                       f"{np.array2string(g.alpha, precision=4)}, beta {np.array2string(g.beta, precision=4)}")
         else:
             params = "-"

@@ -364,7 +364,7 @@ class GarchFit(EstimatesMixin):
 
     Attributes
     ----------
-    omega : ndarray, shape (1,)
+    omega : float
         Constant ``alpha_0`` of eq. 7, u^2.
     alpha : ndarray, shape (p,)
         ARCH coefficients (on ``x_{t-i}^2``), dimensionless.
@@ -388,7 +388,7 @@ class GarchFit(EstimatesMixin):
         Engle's LM test for ARCH effects left in ``x_t / sigma_t``.
     """
 
-    omega: np.ndarray = array_field()
+    omega: float
     alpha: np.ndarray = array_field()
     beta: np.ndarray = array_field()
     loglikelihood: float
@@ -408,7 +408,7 @@ class GarchFit(EstimatesMixin):
     @property
     def params(self) -> np.ndarray:
         """``(omega, alpha_1..p, beta_1..q)``."""
-        return np.concatenate([self.omega, self.alpha, self.beta])
+        return np.concatenate([[self.omega], self.alpha, self.beta])
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -424,7 +424,7 @@ class GarchFit(EstimatesMixin):
     @property
     def unconditional_variance(self) -> float:
         """``omega / (1 - persistence)``, u^2."""
-        return float(self.omega[0] / (1.0 - self.persistence))
+        return self.omega / (1.0 - self.persistence)
 
     @property
     def aic(self) -> float:
@@ -520,7 +520,7 @@ def _fit_garch(x: ArrayLike, p: int, q: int, lags: int, max_iter: int, tol: floa
     omega, alpha, beta = _split(theta * units, p)
     z = y / np.sqrt(s2)
     return GarchFit(
-        omega=np.array([omega]), alpha=alpha.copy(), beta=beta.copy(),
+        omega=float(omega), alpha=alpha.copy(), beta=beta.copy(),
         loglikelihood=ll - x.size * math.log(scale), conditional_variance=s2 * scale**2,
         cov_params=cov * np.outer(units, units), n=int(x.size), converged=converged,
         n_iter=n_iter, scale=scale, lm_test=arch_lm_test(z, lags),
@@ -536,7 +536,7 @@ def _warm_start(lik: _Likelihood, fit: GarchFit, scale: float) -> np.ndarray | N
     p0, q0 = fit.order
     if p0 > p or q0 > q:
         return None
-    theta = _raise_shares(np.concatenate([fit.omega / scale**2, fit.alpha, np.zeros(p - p0),
+    theta = _raise_shares(np.concatenate([[fit.omega / scale**2], fit.alpha, np.zeros(p - p0),
                                           fit.beta, np.zeros(q - q0)]))
     score = lik.terms(theta)[1]
     added = np.r_[1 + p0 : 1 + p, 1 + p + q0 : 1 + p + q]
