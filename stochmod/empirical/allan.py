@@ -529,7 +529,8 @@ def greenhall_edf(
 
     Greenhall & Riley (2004), "Uncertainty of stability variances based on finite
     differences" (35th PTTI), with their ``J_max = 100`` approximations (Tables 1-3); the one
-    case they leave open (alpha = 2, unmodified, ``ceil(M/S) <= d``) is summed exactly.
+    case they leave open (alpha = 2, unmodified, ``ceil(M/S) <= d``) is summed exactly. For
+    alpha = 0 it models a phase averaged over ``tau0``; i.i.d. rate samples: `white_rate_edf`.
 
     Parameters
     ----------
@@ -625,7 +626,7 @@ def white_rate_edf(
     box of m ones (convolved with one more box of m ones when modified; ``sum h = 0``, so the
     mean of y drops out) and s the stride (1, or m non-overlapping). For y ~ N(0, sigma^2 I)
     the variance ``v = sum_{i<M} t_i^2 / c`` (M terms) has ``E v = sigma^2 M R_0 / c`` and
-    ``Var v = 2 sigma^4 tr(A^2) / c^2`` (A the Gram matrix of the terms), so
+    ``Var v = 2 sigma^4 tr(A^2) / c^2`` (``A = sum_i h_i h_i^T``, h_i the row of term i), so
 
     ``edf = 2 (E v)^2 / Var v = (M R_0)^2 / (M R_0^2 + 2 sum_{k=1}^{M-1} (M - k) R_{k s}^2)``
 
