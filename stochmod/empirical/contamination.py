@@ -42,6 +42,12 @@ class Contamination:
         Levels where the scale equation had no root (too few effectively independent
         coefficients, typically the deepest of a random walk): the classical mean of squares
         stands there, with the classical variance (``kappa_j = 1``).
+    replaced_time : ndarray
+        Times (s from the first sample) of the samples replaced as isolated outliers before
+        the decomposition (:func:`~stochmod.empirical.robust_wv.robust_wvar`'s screening).
+        When there are some, level 1's share and worst positions are those of the record as
+        given (the level-1 Haar coefficients, where they were found); the other levels
+        describe the screened record.
     """
 
     levels: np.ndarray = array_field()
@@ -51,6 +57,8 @@ class Contamination:
     worst_time: tuple[np.ndarray, ...] = attrs.field(eq=attrs.cmp_using(eq=_arrays_equal))
     worst_score: tuple[np.ndarray, ...] = attrs.field(eq=attrs.cmp_using(eq=_arrays_equal))
     classical_levels: tuple[int, ...] = ()
+    replaced_time: np.ndarray = attrs.field(factory=lambda: np.empty(0),
+                                            eq=attrs.cmp_using(eq=np.array_equal))
 
     def summary(self) -> str:
         """Table of the share rejected per level against the Gaussian share, and the worst times."""
@@ -64,8 +72,14 @@ class Contamination:
             rows.append((int(j), t, 100.0 * s, worst))
         title = (f"Contamination: share of coefficients beyond c (Gaussian: "
                  f"{format_number(100 * self.expected_share, 3)}%) and worst positions")
-        return format_table(["level", "tau [s]", "rejected %", "worst (time, size)"], rows,
-                            title=title, digits=4)
+        table = format_table(["level", "tau [s]", "rejected %", "worst (time, size)"], rows,
+                             title=title, digits=4)
+        if self.replaced_time.size == 0:
+            return table
+        first = ", ".join(f"{format_number(t, 5)} s" for t in self.replaced_time[:5])
+        more = ", ..." if self.replaced_time.size > 5 else ""
+        return (f"{table}\nIsolated outliers replaced before the decomposition: "
+                f"{self.replaced_time.size} samples ({first}{more})")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict of every field."""
@@ -77,4 +91,5 @@ class Contamination:
             "worst_time": [[float(t) for t in a] for a in self.worst_time],
             "worst_score": [[float(t) for t in a] for a in self.worst_score],
             "classical_levels": [int(j) for j in self.classical_levels],
+            "replaced_time": [float(t) for t in self.replaced_time],
         }

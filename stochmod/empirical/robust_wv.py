@@ -99,6 +99,8 @@ _CHUNK = 1 << 16
 _MEDIAN_CHI2_1 = 0.45493642311957283  # median of chi^2 with one degree of freedom
 _HERMITE_TERMS = 10  # Hermite orders 2, 4, ..., 2K in the sandwich (the rest bounded by R_K+1)
 _N_WORST = 5
+#: Longest run of samples the screening replaces as one isolated outlier (module notes).
+MAX_PATCH = 4
 #: From this many coefficients on, the power sums run in single precision (twice the SIMD
 #: width; relative error ~1e-6, chunk sums accumulated in double): far below the estimate's
 #: own sampling error, which is above 1e-3 for M_j <= 2^20 coefficients (as wv_covariance).
@@ -482,8 +484,100 @@ def m_scale(w: ArrayLike, rho: ScaleRho, n_worst: int = _N_WORST) -> MScale:
     est = _solve((sums, idx, wn[idx]), lambda: wn, v0, rho, M, n_worst)
     return attrs.evolve(est, variance=est.variance / (f * f))
 
+@attrs.define
+class _Screening:
+    """Outcome of the screening for isolated outliers (module notes): the signal the levels
+    are computed from, the replaced samples and the level-1 M-scale of the record as given
+    (None when nothing was replaced); `c2` is the squared threshold, in robust sd, beyond which
+    a level-1 coefficient is an outlier (the biweight's c at the estimator's efficiency,
+    whichever chi function estimates the levels)."""
 
-def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WORST
+    x: np.ndarray
+    c2: float
+    replaced: np.ndarray = attrs.field(factory=lambda: np.empty(0, dtype=np.int64))
+    first: MScale | None = None
+
+
+def _rejected(idx: np.ndarray, wb: np.ndarray, variance: float, c2: float, core: float,
+              full: Callable[[], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Indices and values of the coefficients beyond ``c sqrt(variance)``, from those above
+    `core` (``idx``, ``wb``: a superset when ``core <= c^2 variance``), else from all of them."""
+    if core <= c2 * variance:
+        keep = np.square(wb) > c2 * variance
+        return idx[keep], wb[keep]
+    w = full()
+    far = np.flatnonzero(np.square(w) > c2 * variance)
+    return far, w[far]
+
+
+def isolated_patches(idx: ArrayLike, w: ArrayLike, max_patch: int = MAX_PATCH
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Isolated outliers from the rejected level-1 Haar coefficients.
+
+    ``w[k]`` is (up to a positive factor) ``x[idx[k] + 1] - x[idx[k]]``, sorted by index. Two
+    consecutive rejected coefficients of opposite signs at most `max_patch` apart bound a
+    patch ``x[idx[k] + 1 : idx[k + 1] + 1]``: a jump away and back (a single-sample spike
+    gives two adjacent ones). Pairs are taken left to right, each coefficient in one pair at
+    most; a lone rejected coefficient (an edge of a longer burst, a step) bounds nothing.
+
+    Returns
+    -------
+    first, length : ndarray of int64
+        First sample and number of samples of each patch, increasing. Patches never touch:
+        the samples just before and after each one are not in any.
+    """
+    idx = np.asarray(idx, dtype=np.int64)
+    w = np.asarray(w, dtype=np.float64)
+    if idx.size < 2:
+        return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+    gap = np.diff(idx)
+    pairs = np.flatnonzero((gap <= max_patch) & (np.sign(w[1:]) * np.sign(w[:-1]) < 0))
+    taken = []
+    last = -2
+    for k in pairs.tolist():  # a chain of rejected coefficients: disjoint pairs, greedy
+        if k >= last + 2:
+            taken.append(k)
+            last = k
+    taken = np.array(taken, dtype=np.int64)
+    return idx[taken] + 1, gap[taken]
+
+
+def replace_patches(x: np.ndarray, first: np.ndarray, length: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """A copy of `x` with each patch (:func:`isolated_patches`) replaced by the straight line
+    between the samples just before and just after it; and the replaced samples' indices."""
+    lo = np.repeat(first - 1, length)
+    hi = np.repeat(first + length, length)
+    samples = lo + 1 + np.arange(lo.size) - np.repeat(np.cumsum(length) - length, length)
+    out = x.copy()
+    out[samples] = x[lo] + (samples - lo) / (hi - lo) * (x[hi] - x[lo])
+    return out, samples
+
+
+def _screen_with(screening: _Screening, est: MScale, idx: np.ndarray, wb: np.ndarray,
+                 variance: float, core: float, full: Callable[[], np.ndarray]) -> bool:
+    """Fill `screening` from the level-1 M-scale of its signal (`variance` in the unit of
+    `wb`, `est` in the unit of the level-1 coefficients) and the coefficients above `core`;
+    whether some samples were replaced."""
+    far, wf = _rejected(idx, wb, variance, screening.c2, core, full)
+    first, length = isolated_patches(far, wf)
+    if first.size:
+        screening.x, screening.replaced = replace_patches(screening.x, first, length)
+        screening.first = est
+    return bool(first.size)
+
+
+def _screen(screening: _Screening, rho: ScaleRho) -> None:
+    """Screen the signal for isolated outliers on its level-1 Haar coefficients (general
+    path)."""
+    w = 0.5 * np.diff(screening.x)
+    est = m_scale(w, rho)
+    _screen_with(screening, est, np.empty(0, dtype=np.int64), np.empty(0), est.variance,
+                 np.inf, lambda: w)
+
+
+def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WORST,
+                 screening: _Screening | None = None
                  ) -> Iterator[tuple[int, int, MScale | None]]:
     """Yield ``(j, M_j, m_scale of W_j)`` for the Haar levels j = 1..levels (None where the
     equation has no root), each level in one pass over the pyramid's work array.
@@ -496,6 +590,10 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
     compiled loop (:func:`stochmod.empirical.haar_jit.haar_level_power_sums`) then computes d,
     its power sums and the next level's sums V_j. The coefficients are never stored: where
     the first bracket fails (rare), they are computed again.
+
+    With `screening`, level 1 also screens x for isolated outliers (module notes): if some
+    are found, `screening` receives the cleaned signal, the replaced samples and this level-1
+    estimate, and every level, the first included, is computed again from the cleaned signal.
     """
     c2 = rho.c * rho.c
     n_valid = x.size
@@ -543,6 +641,12 @@ def _haar_scales(x: np.ndarray, levels: int, rho: ScaleRho, n_worst: int = _N_WO
             sums, idx = _power_sums(wn, v0, core)
             wb = wn[idx]
         est = _level_scale(lambda: _solve((sums, idx, wb), full, v0, rho, m, n_worst), j)
+        if j == 1 and screening is not None and est is not None:
+            first = attrs.evolve(est, variance=est.variance / norm**2)
+            if _screen_with(screening, first, idx, wb, est.variance, core, full):
+                del v, work, big_idx, big_w, idx, wb  # the pass below has its own
+                yield from _haar_scales(screening.x, levels, rho, n_worst)
+                return
         yield j, m, None if est is None else attrs.evolve(est, variance=est.variance / norm**2)
         n_valid = m
 
@@ -604,6 +708,7 @@ def robust_wvar(
     ci: str = "chi2",
     alpha: float = 0.05,
     rho: str = "biweight",
+    screen: bool = True,
 ) -> WaveletVariance:
     """Robust MODWT wavelet variance (M-estimate per level) with intervals and diagnostic.
 
@@ -624,12 +729,17 @@ def robust_wvar(
         (variance ratio bound ``1/eff``); ``"normal"``: the sandwich variance (module notes).
     rho : {"biweight", "huber"}
         Chi function.
+    screen : bool
+        Replace isolated outliers (patches of at most :data:`MAX_PATCH` samples bounded by two
+        rejected level-1 coefficients of opposite signs) by the straight line between their
+        neighbours before the decomposition (module notes); False: the M-estimates of the
+        record as given.
 
     Returns
     -------
     WaveletVariance
         With ``robust=True``, ``efficiency``, ``rho``, ``tuning`` (c), ``variance_ratio``
-        (kappa_j) and ``contamination`` set.
+        (kappa_j) and ``contamination`` set (its ``replaced_time``: the replaced samples).
 
     Raises
     ------
@@ -670,15 +780,18 @@ def robust_wvar(
     classical: list[int] = []
     highs: list[float] = []
     haar_pass = ci == "chi2" and modwt_filters(wavelet)[0].size == 2
-    if haar_pass:  # Haar: the coefficients are not kept
-        scales = _haar_scales(x, n_levels, chi)
+    screening = _Screening(x, scale_rho(efficiency, "biweight").c ** 2)
+    if haar_pass:  # Haar: the coefficients are not kept; level 1 screens
+        scales = _haar_scales(x, n_levels, chi, screening=screening if screen else None)
     else:  # the coefficients in buf (the normal interval's spectra need them)
+        if screen:
+            _level_scale(lambda: _screen(screening, chi), 1)
         buf = np.zeros(scipy.fft.next_fast_len(2 * m1 - 1, real=True) if ci == "normal" else m1)
         scales = ((j, m, _level_scale(lambda m=m: m_scale(buf[:m], chi), j))
-                  for j, _, m in pyramid(x, n_levels, wavelet, buf, sumsq=False))
+                  for j, _, m in pyramid(screening.x, n_levels, wavelet, buf, sumsq=False))
     for j, m, est in scales:
         if est is None:  # no root: the classical mean of squares stands at this level
-            w = modwt.modwt_coefficients(x, j, wavelet) if haar_pass else buf[:m]
+            w = modwt.modwt_coefficients(screening.x, j, wavelet) if haar_pass else buf[:m]
             est = MScale(float(np.dot(w, w)) / m, 0, np.empty(0, np.int64), np.empty(0))
             classical.append(j)
             ratio[j - 1] = 1.0
@@ -701,6 +814,10 @@ def robust_wvar(
                 ratio[j - 1] * powers[0] / m)
             lows.append(max(est.variance - half, NORMAL_CI_FLOOR * est.variance))
             highs.append(est.variance + half)
+    if screening.first is not None:  # level 1 as recorded: where the isolated outliers show
+        share[0] = screening.first.n_rejected / (n - 1)
+        worst_t[0] = (screening.first.worst + 0.5) / freq
+        worst_s[0] = screening.first.worst_score
     if ci == "chi2":
         eta = np.maximum(n_coef / 2.0**js, 1.0) / ratio
         low = eta * wv / special.chdtri(eta, alpha / 2.0)
@@ -711,8 +828,10 @@ def robust_wvar(
     arrays = [js, tau, wv, low, high, n_coef]
     for a in (*arrays, ratio, share):
         a.setflags(write=False)
+    replaced = screening.replaced / freq
+    replaced.setflags(write=False)
     diag = Contamination(js, tau, share, chi.rejection_probability, tuple(worst_t),
-                         tuple(worst_s), tuple(classical))
+                         tuple(worst_s), tuple(classical), replaced)
     return WaveletVariance(*arrays, freq=freq, wavelet=wavelet, n=n, ci_method=ci, alpha=alpha,
                            robust=True, efficiency=efficiency, rho=rho, tuning=chi.c,
                            variance_ratio=ratio, contamination=diag)
