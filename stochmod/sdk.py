@@ -6,9 +6,11 @@ stochmod. What it finds here, by plugin point (docs/plugin_contract.md):
 - every plugin: :data:`hookimpl`, the errors, the input checks and :func:`format_table`;
 - process families (``stochmod_processes``): :class:`Process` and its declarations
   (:class:`Parameter`, :class:`PhysicalValue`, :class:`StateSpaceBlock`,
-  :class:`ContinuousBlock`), :func:`as_generator`, the unit conversions, the closed forms of
-  geometric Haar wavelet variances, the wavelet filters and the optional compiler
-  (:func:`compiled`, :data:`JIT_AVAILABLE`);
+  :class:`ContinuousBlock`), the optional vectorised-WV protocol :class:`VectorisedWV`, the
+  base :class:`ScaledFamily` of families whose Haar WV is a scale times a factor,
+  :func:`as_generator`, the unit conversions, the closed forms of geometric Haar wavelet
+  variances, the wavelet filters and the optional compiler (:func:`compiled`,
+  :data:`JIT_AVAILABLE`);
 - readers (``stochmod_readers``): :class:`Reader`, :class:`Recording`, :func:`import_optional`,
   :func:`sensor_kind`;
 - weightings (``stochmod_weightings``): :class:`Weighting`, :class:`WeightingInput`,
@@ -82,6 +84,8 @@ from stochmod.plugin.spec import model_from_spec
 
 #: Module of each name imported on first access.
 _LAZY: dict[str, tuple[str, ...]] = {
+    "stochmod.core.vectorised_wv": ("VectorisedWV",),
+    "stochmod.core.scaled_family": ("ScaledFamily",),
     "stochmod.fit.weighting_plugins": ("Weighting", "WeightingInput", "WeightingMatrix"),
     "stochmod.redundant.combination": ("CombinationResult", "as_sensor_array",
                                        "residuals_from_mean"),
@@ -92,6 +96,8 @@ _LAZY: dict[str, tuple[str, ...]] = {
 _LAZY_NAMES = {name: module for module, names in _LAZY.items() for name in names}
 
 if TYPE_CHECKING:
+    from stochmod.core.scaled_family import ScaledFamily
+    from stochmod.core.vectorised_wv import VectorisedWV
     from stochmod.empirical.wavelet_variance import wvar
     from stochmod.fit.arma import ArmaFit, fit_arma, select_arma
     from stochmod.fit.garch import GarchFit, fit_garch, select_garch
@@ -119,6 +125,8 @@ __all__ = [
     "model_from_spec",
     # process families
     "Process",
+    "VectorisedWV",
+    "ScaledFamily",
     "Model",
     "Parameter",
     "get_domain",

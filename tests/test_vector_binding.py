@@ -1,6 +1,6 @@
-"""The GMWM binding from parameter vectors (stochmod.fit.vector_binding, Process.haar_wv_rows,
-geometric.haar_wv_positive_rows): the same digits as the Process path, which it replaces
-inside the optimizer only for speed."""
+"""The GMWM binding from parameter vectors (stochmod.fit.vector_binding, the VectorisedWV
+protocol, geometric.haar_wv_positive_rows): the same digits as the Process path, which it
+replaces inside the optimizer only for speed."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from stochmod.fit.engine import Problem
 from stochmod.fit.vector_binding import VectorBinding
 from stochmod.core import geometric
 from stochmod.core.geometric import haar_wv_positive, haar_wv_positive_rows
-from stochmod.core.process import Process, wv_rows_domains
+from stochmod.core.vectorised_wv import VectorisedWV, declares_wv_rows, wv_kernel, wv_rows_domains
 
 FREQ = 100.0
 
@@ -67,14 +67,11 @@ def test_haar_wv_positive_rows_refuses_a_non_positive_u(u: float) -> None:
         haar_wv_positive_rows(np.array([0.1, u]), 2.0 ** np.arange(5))
 
 
-@pytest.mark.parametrize("family", ["GM", "WN", "RW", "QN", "RR", "AR(2)"])
+@pytest.mark.parametrize("family", ["GM", "WN", "RW", "QN", "RR"])
 def test_haar_wv_rows_is_each_rows_process_bit_for_bit(family: str) -> None:
     proto = stochmod.model_from_spec(family, FREQ).processes[0]
     rng = np.random.default_rng(3)
-    if family == "AR(2)":  # the base class's default, row by row
-        values = np.array([[0.5, 0.3, 2.0], [1.2, -0.4, 1e-3]])
-    else:
-        values = 10.0 ** rng.uniform(-9, 2.5, (7, proto.n_params))
+    values = 10.0 ** rng.uniform(-9, 2.5, (7, proto.n_params))
     for levels in (1, 6, 21):
         wv, jac = proto.haar_wv_rows(values, levels, FREQ)
         assert wv.shape == (values.shape[0], levels) and jac.shape == (values.shape[0], levels, proto.n_params)
@@ -87,19 +84,38 @@ def test_haar_wv_rows_is_each_rows_process_bit_for_bit(family: str) -> None:
 def test_only_plain_built_in_families_have_a_vector_form() -> None:
     reg = {p.family: type(p) for p in stochmod.model_from_spec("GM+WN+RW+QN+RR+AR(1)", FREQ).processes}
     assert all(wv_rows_domains(reg[f]) is not None for f in ("GM", "WN", "RW", "QN", "RR"))
-    assert wv_rows_domains(reg["AR"]) is None  # its construction checks stationarity
+    # AR declares no vectorised form (and its construction checks stationarity)
+    assert not issubclass(reg["AR"], VectorisedWV) and wv_rows_domains(reg["AR"]) is None
     assert VectorBinding.of(stochmod.model_from_spec("2*GM+AR(1)", FREQ), 10) is None
+    assert wv_rows_domains(stochmod.model_from_spec("GM", FREQ).processes[0]) is None  # a class
 
-    class Plain(reg["WN"]):  # a subclass that does not declare the vector form keeps the default
-        haar_wv_rows = Process.haar_wv_rows
 
-    assert wv_rows_domains(Plain) is None
+@pytest.mark.parametrize("family", ["GM", "WN", "RR"])
+@pytest.mark.parametrize("changed", ["wv", "wv_jacobian"])
+def test_a_subclass_that_changes_its_wv_does_not_use_its_parents_rows(family: str, changed: str) -> None:
+    """The protocol's rule: rows (and a kernel) are in force only in the class that defines
+    haar_wv_rows and below, up to a subclass that changes wv or wv_jacobian; such a subclass
+    is evaluated through Process objects, and is back on the vector path with rows of its
+    own."""
+    parent = type(stochmod.model_from_spec(family, FREQ).processes[0])
 
-    class Scaled(reg["GM"]):  # changes the WV but inherits GM's vector form: not used
-        def wv(self, levels, freq, wavelet="haar"):
-            return 2.0 * super().wv(levels, freq, wavelet)
+    def doubled(self, *args, **kwargs):
+        return 2.0 * getattr(parent, changed)(self, *args, **kwargs)
 
-    assert wv_rows_domains(Scaled) is None
+    Changed = type("Changed", (parent,), {changed: doubled})
+    assert issubclass(Changed, VectorisedWV)  # it still inherits the declaration ...
+    assert not declares_wv_rows(Changed)  # ... but the parent's rows are not in force
+    assert wv_rows_domains(Changed) is None and wv_kernel(Changed) is None
+    wn = stochmod.model_from_spec("WN(sigma2=1.0)", FREQ).processes[0]
+    assert VectorBinding.of(stochmod.Model((Changed.example(FREQ), wn), FREQ), 8) is None
+
+    def rows(self, values, levels, freq):
+        wv, jac = parent.haar_wv_rows(self, values, levels, freq)
+        return (2.0 * wv, jac) if changed == "wv" else (wv, 2.0 * jac)
+
+    Own = type("Own", (Changed,), {"haar_wv_rows": rows})
+    assert declares_wv_rows(Own) and wv_rows_domains(Own) == wv_rows_domains(parent)
+    assert wv_kernel(Own) is None  # the parent's kernel is not below the rows in force
 
 
 class _ProcessPath(Problem):
@@ -183,11 +199,13 @@ def test_one_point_is_the_rows_path_bit_for_bit() -> None:
 
 
 def test_compiled_kernels_give_the_rows_digits() -> None:
-    """A model whose every family declares Process.haar_wv_kernel (GM, WN) is evaluated by the
-    kernels, one call per component in model order: bit for bit the rows path, including a
-    GM whose e^-u < 1e-3 (its kernel declines and the point goes through the rows)."""
-    model = stochmod.model_from_spec("GM(beta=5.0, sigma2=1e-6) + WN(sigma2=1e-4) "
-                                     "+ GM(beta=0.01, sigma2=4e-6) + GM(beta=0.3, sigma2=1e-5)", FREQ)
+    """A model whose every family declares VectorisedWV.haar_wv_kernel (GM, and WN, RW, QN
+    through ScaledFamily) is evaluated by the kernels, one call per component in model order:
+    bit for bit the rows path, including a GM whose e^-u < 1e-3 (its kernel declines and the
+    point goes through the rows)."""
+    model = stochmod.model_from_spec("GM(beta=5.0, sigma2=1e-6) + WN(sigma2=1e-4) + RW(sigma2=1e-12) "
+                                     "+ GM(beta=0.01, sigma2=4e-6) + QN(Q2=1e-7) "
+                                     "+ GM(beta=0.3, sigma2=1e-5)", FREQ)
     binding = VectorBinding.of(model, 19)
     if not geometric._JIT:
         assert binding._kernels is None  # without numba: the rows path only
@@ -208,22 +226,22 @@ def test_compiled_kernels_give_the_rows_digits() -> None:
             assert np.array_equal(_bits(got[0]), _bits(expected[0]))
             assert np.array_equal(_bits(got[1]), _bits(expected[1]))
     assert used > 300
-    # a model with a family without a kernel (RW) keeps the rows path
-    assert VectorBinding.of(stochmod.model_from_spec("GM + WN + RW", FREQ), 19)._kernels is None
+    # a model with a family without a kernel (RR) keeps the rows path
+    assert VectorBinding.of(stochmod.model_from_spec("GM + WN + RW + RR", FREQ), 19)._kernels is None
 
 
-def test_a_subclass_that_changes_the_rows_does_not_inherit_the_kernel() -> None:
-    from stochmod.core.process import wv_kernel
+@pytest.mark.parametrize("family", ["GM", "WN", "RW", "QN"])
+def test_a_subclass_that_changes_the_rows_does_not_inherit_the_kernel(family: str) -> None:
+    cls = type(stochmod.model_from_spec(family, FREQ).processes[0])
 
-    gm = type(stochmod.model_from_spec("GM", FREQ).processes[0])
-
-    class Rows(gm):
+    class Rows(cls):
         def haar_wv_rows(self, values, levels, freq):
             return super().haar_wv_rows(values, levels, freq)
 
-    if gm.haar_wv_kernel is None:
+    if cls.haar_wv_kernel is None:
         pytest.skip("numba is not available")
-    assert wv_kernel(gm) is gm.haar_wv_kernel and wv_kernel(Rows) is None
+    assert wv_kernel(cls) is cls.haar_wv_kernel and wv_kernel(Rows) is None
+    assert wv_rows_domains(Rows) is not None  # its own rows are in force
 
 
 def test_the_polynomial_rows_are_the_complex_paths_digits() -> None:

@@ -43,6 +43,7 @@ from stochmod.sdk import (
     Parameter,
     PhysicalValue,
     Process,
+    VectorisedWV,
     as_generator,
     as_signal,
     bi_floor,
@@ -133,7 +134,7 @@ def _haar_wv(u: float, levels: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @attrs.frozen
-class GM(Process):
+class GM(Process, VectorisedWV):
     """First-order Gauss-Markov process.
 
     Parameters

@@ -37,6 +37,7 @@ from stochmod.sdk import (
     Parameter,
     PhysicalValue,
     Process,
+    ScaledFamily,
     as_generator,
     as_signal,
     check_coefficients,
@@ -48,13 +49,8 @@ from stochmod.sdk import (
 __all__ = ["QN", "stochmod_processes"]
 
 
-def _haar_factor(levels: int) -> np.ndarray:
-    """``3 / (2 m^2)`` at m = 2^(j-1), j = 1..levels."""
-    return 1.5 * 4.0 ** -np.arange(int(levels), dtype=np.float64)
-
-
 @attrs.frozen
-class QN(Process):
+class QN(ScaledFamily):
     """Quantization noise of parameter `Q2` (signal unit^2), ``X_t = sqrt(12 Q2)(U_t - U_{t-1})``.
 
     Parameters
@@ -104,24 +100,11 @@ class QN(Process):
         return float(self.Q2)
 
     # ------------------------------------------------------------------ theory
-    def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
-        """Haar: ``3 Q2 / (2 m^2)``, m = 2^(j-1) (u^2); other wavelets: PSD quadrature."""
-        if wavelet != "haar":
-            return super().wv(levels, freq, wavelet)
-        self.require_values()
-        return self.Q2 * self.wv_jacobian(levels, freq)[:, 0]  # linear in Q2
-
-    def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
-        """d wv_j / d Q2 = 3 / (2 m^2), shape (levels, 1)."""
-        check_freq(freq)
-        return _haar_factor(check_positive_int(levels, name="levels"))[:, None]
-
-    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(Q2,)`` of `values` (K, 1), bit for bit."""
-        values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
-        check_freq(freq)
-        factor = _haar_factor(check_positive_int(levels, name="levels"))
-        return values * factor, np.broadcast_to(factor[:, None], (values.shape[0], factor.size, 1)).copy()
+    @classmethod
+    def haar_factor(cls, levels: int, freq: float) -> np.ndarray:
+        """``d wv_j / d Q2 = 3 / (2 m^2)`` at m = 2^(j-1), j = 1..levels: the Haar WV is
+        ``Q2`` times it (u^2; other wavelets: PSD quadrature)."""
+        return 1.5 * 4.0 ** -np.arange(int(levels), dtype=np.float64)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Two-sided PSD ``4 Q2 sin^2(pi f / freq) / freq`` (u^2/Hz)."""
@@ -159,7 +142,7 @@ class QN(Process):
         j = min(1 + int(index), wv.size)
         if not wv[j - 1] > 0:
             raise InputError(f"wv[{j - 1}] = {wv[j - 1]!r} must be positive to start QN.Q2")
-        guess = float(wv[j - 1] / _haar_factor(j)[-1]) / count
+        guess = float(wv[j - 1] / self.haar_factor(j, freq)[-1]) / count
         if rng is not None:
             guess *= float(np.exp(rng.normal(0.0, 1.0)))
         return self.with_values(Q2=guess)

@@ -39,6 +39,7 @@ from stochmod.sdk import (
     Parameter,
     PhysicalValue,
     Process,
+    VectorisedWV,
     as_generator,
     as_signal,
     check_coefficients,
@@ -68,7 +69,7 @@ def _first_moment(wavelet: str) -> float:
 
 
 @attrs.frozen
-class RR(Process):
+class RR(Process, VectorisedWV):
     """Random ramp ``X_t = s t`` with rms slope `omega` per sample (signal unit per sample).
 
     Parameters

@@ -37,6 +37,7 @@ from stochmod.sdk import (
     Parameter,
     PhysicalValue,
     Process,
+    ScaledFamily,
     as_generator,
     as_signal,
     check_coefficients,
@@ -50,14 +51,8 @@ from stochmod.sdk import (
 __all__ = ["RW", "stochmod_processes"]
 
 
-def _haar_factor(levels: int) -> np.ndarray:
-    """``(2 m^2 + 1) / (12 m) = m / 6 + 1 / (12 m)`` at m = 2^(j-1), j = 1..levels."""
-    m = 2.0 ** np.arange(int(levels))
-    return m / 6.0 + 1.0 / (12.0 * m)
-
-
 @attrs.frozen
-class RW(Process):
+class RW(ScaledFamily):
     """Gaussian random walk with per-sample increment variance `sigma2` (signal unit^2).
 
     Parameters
@@ -104,24 +99,13 @@ class RW(Process):
         return float(self.sigma2)
 
     # ------------------------------------------------------------------ theory
-    def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
-        """Haar: ``sigma2 (2 m^2 + 1) / (12 m)``, m = 2^(j-1) (u^2); others: PSD quadrature."""
-        if wavelet != "haar":
-            return super().wv(levels, freq, wavelet)
-        self.require_values()
-        return self.sigma2 * self.wv_jacobian(levels, freq)[:, 0]  # linear in sigma2
-
-    def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
-        """d wv_j / d sigma2 = (2 m^2 + 1) / (12 m), shape (levels, 1)."""
-        check_freq(freq)
-        return _haar_factor(check_positive_int(levels, name="levels"))[:, None]
-
-    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(sigma2,)`` of `values` (K, 1), bit for bit."""
-        values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
-        check_freq(freq)
-        factor = _haar_factor(check_positive_int(levels, name="levels"))
-        return values * factor, np.broadcast_to(factor[:, None], (values.shape[0], factor.size, 1)).copy()
+    @classmethod
+    def haar_factor(cls, levels: int, freq: float) -> np.ndarray:
+        """``d wv_j / d sigma2 = (2 m^2 + 1) / (12 m) = m / 6 + 1 / (12 m)`` at
+        m = 2^(j-1), j = 1..levels: the Haar WV is ``sigma2`` times it (u^2; other wavelets:
+        PSD quadrature)."""
+        m = 2.0 ** np.arange(int(levels))
+        return m / 6.0 + 1.0 / (12.0 * m)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Generalised two-sided PSD ``sigma2 / (4 freq sin^2(pi f / freq))``, u^2/Hz (inf at 0)."""
@@ -164,7 +148,7 @@ class RW(Process):
         j = max(wv.size - int(index), 1)
         if not wv[j - 1] > 0:
             raise InputError(f"wv[{j - 1}] = {wv[j - 1]!r} must be positive to start RW.sigma2")
-        guess = float(wv[j - 1] / _haar_factor(j)[-1]) / count
+        guess = float(wv[j - 1] / self.haar_factor(j, freq)[-1]) / count
         if rng is not None:
             guess *= float(np.exp(rng.normal(0.0, 1.0)))
         return self.with_values(sigma2=guess)

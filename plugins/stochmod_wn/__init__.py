@@ -7,7 +7,6 @@ model's sampling frequency ``freq``. Physical view: the noise density
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -16,16 +15,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.sdk import (
-    JIT_AVAILABLE as _COMPILED,
-)
-from stochmod.sdk import (
     Parameter,
     PhysicalValue,
     Process,
+    ScaledFamily,
     as_generator,
     check_coefficients,
     check_freq,
-    compiled,
     hookimpl,
     wn_density,
 )
@@ -33,32 +29,12 @@ from stochmod.sdk import (
 __all__ = ["WN", "stochmod_processes"]
 
 
-@compiled
-def _wv_kernel(values: np.ndarray, m: np.ndarray, freq: float, wv: np.ndarray,
-               jac: np.ndarray) -> bool:  # pragma: no cover - compiled
-    """:attr:`WN.haar_wv_kernel`: ``sigma2 / 2^j`` added to `wv`, ``1 / 2^j`` into `jac`
-    (``2^j = 2 m``, exact: the divisions of :meth:`WN.haar_wv_rows`)."""
-    sigma2 = values[0]
-    for j in range(m.size):
-        scale = 2.0 * m[j]
-        wv[j] += sigma2 / scale
-        jac[j, 0] = 1.0 / scale
-    return True
-
-
-@functools.lru_cache(maxsize=8)
-def _scales(levels: int) -> tuple[np.ndarray, np.ndarray]:
-    """``2^j`` and ``1 / 2^j`` for j = 1..`levels` (read-only, as :meth:`WN.wv` and
-    :meth:`WN.wv_jacobian` compute them)."""
-    scale = 2.0 ** np.arange(1, levels + 1)
-    inverse = 1.0 / scale
-    scale.flags.writeable = inverse.flags.writeable = False
-    return scale, inverse
-
-
 @attrs.frozen
-class WN(Process):
+class WN(ScaledFamily):
     """Gaussian white noise with variance `sigma2` per sample (signal unit^2).
+
+    Its WV is ``sigma2 / 2^j`` for every wavelet (:class:`~stochmod.sdk.ScaledFamily` gives
+    ``wv``, ``wv_jacobian`` and the vectorised rows from :meth:`haar_factor`).
 
     Parameters
     ----------
@@ -76,7 +52,7 @@ class WN(Process):
     lattice_copies: ClassVar[int] = 1
     lattice_rank: ClassVar[int] = 20
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = (("N",),)
-    haar_wv_kernel: ClassVar[Any] = staticmethod(_wv_kernel) if _COMPILED else None
+    factor_for_every_wavelet: ClassVar[bool] = True
 
     @classmethod
     def from_density(cls, N: float, freq: float) -> WN:
@@ -99,20 +75,11 @@ class WN(Process):
         self.require_values()
         return float(self.sigma2)
 
-    def wv(self, levels: int, freq: float, wavelet: str = "haar") -> np.ndarray:
-        """``sigma2 / 2^j`` for any wavelet (the level-j MODWT filter has energy 1/2^j)."""
-        self.require_values()
-        return self.sigma2 / 2.0 ** np.arange(1, int(levels) + 1)
-
-    def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
-        """d wv / d sigma2 = 1 / 2^j."""
-        return (1.0 / 2.0 ** np.arange(1, int(levels) + 1))[:, None]
-
-    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`wv` and :meth:`wv_jacobian` at rows ``(sigma2,)`` of `values` (K, 1), bit for bit."""
-        values = np.asarray(values, dtype=np.float64).reshape(-1, 1)
-        scale, inverse = _scales(int(levels))
-        return values / scale, np.repeat(inverse[None, :, None], values.shape[0], axis=0)
+    @classmethod
+    def haar_factor(cls, levels: int, freq: float) -> np.ndarray:
+        """``1 / 2^j``, j = 1..levels: the level-j MODWT filter has energy ``2^-j`` (any
+        wavelet), so ``wv_j = sigma2 / 2^j`` (exact: a power of two)."""
+        return 1.0 / 2.0 ** np.arange(1, int(levels) + 1)
 
     def psd(self, f: ArrayLike, freq: float) -> np.ndarray:
         """Flat two-sided PSD ``sigma2 / freq`` (u^2/Hz)."""

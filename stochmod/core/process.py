@@ -13,6 +13,10 @@ Generic fallbacks, used where a family does not override them:
 - :meth:`Process.block` by exact Van Loan re-discretisation of :meth:`continuous_block`,
   or by composing integer numbers of native steps of :meth:`discrete_block`;
 - :meth:`Process.simulate` from the state-space block (families override with direct forms).
+
+Optional protocols a family may declare on top: vectorised Haar WV rows for the GMWM
+optimizer (:class:`stochmod.core.vectorised_wv.VectorisedWV`), and the base of families whose
+Haar WV is a scale times a fixed factor (:class:`stochmod.core.scaled_family.ScaledFamily`).
 """
 
 from __future__ import annotations
@@ -33,8 +37,16 @@ from stochmod.core.params import SCALE_POWERS, Domain, Parameter, get_domain, sc
 from stochmod.core.statespace import ContinuousBlock, StateSpaceBlock, compose_steps, van_loan
 from stochmod.core.theory import wv_from_autocovariance, wv_from_psd
 
-__all__ = ["Process", "PhysicalValue", "as_generator", "declares_block", "declares_psd", "psd_of",
-           "has_theoretical_wv", "wv_rows_domains", "wv_kernel"]
+__all__ = [
+    "PhysicalValue",
+    "Process",
+    "as_generator",
+    "declares_block",
+    "declares_psd",
+    "has_theoretical_wv",
+    "psd_of",
+    "scalar_domains",
+]
 
 
 def as_generator(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -103,15 +115,6 @@ class Process(abc.ABC):
     lattice_copies: ClassVar[int] = 0
     lattice_rank: ClassVar[int] = 0
     ieee952: ClassVar[tuple[tuple[str, ...], ...]] = ()
-    #: Optional fast form of :meth:`haar_wv_rows` for one component (compiled, or a thin
-    #: wrapper of compiled code), declared as a ``staticmethod``:
-    #: ``kernel(values, m, freq, wv, jac) -> bool`` adds the component's Haar WV at the
-    #: parameter values `values` (n_params,) to `wv` (J,), writes its Jacobian into `jac`
-    #: (J, n_params) and returns True, with the digits of :meth:`haar_wv_rows`; it returns
-    #: False (leaving `wv` unspecified) where it does not apply. `m` holds the half-widths
-    #: ``1, 2, 4, ..., 2^(J-1)``, `freq` is in Hz. The GMWM optimizer calls it when every
-    #: component of the model has one (:func:`wv_kernel`); None: not offered.
-    haar_wv_kernel: ClassVar[Any] = None
 
     def __attrs_post_init__(self) -> None:
         if not declares_block(type(self)):
@@ -357,44 +360,6 @@ class Process(abc.ABC):
         return wv_from_psd(lambda f: psd_of(self, f, freq), levels, freq, wavelet=wavelet,
                            breakpoints=self.psd_breakpoints(freq))
 
-    def haar_wv_rows(self, values: ArrayLike, levels: int, freq: float) -> tuple[np.ndarray, np.ndarray]:
-        """Haar :meth:`wv` and :meth:`wv_jacobian` at many parameter vectors of this family at
-        once (an optimizer's model holds several components of one family; a screen of
-        starting points holds many).
-
-        Parameters
-        ----------
-        values : array_like, shape (K, n_params)
-            Parameter vectors (:meth:`vector` order, natural units), each inside its domains.
-        levels : int
-            Number of levels J.
-        freq : float
-            Sampling frequency, Hz.
-
-        Returns
-        -------
-        wv : ndarray (K, J)
-            Row k: ``self.from_vector(values[k]).wv(levels, freq)``, u^2.
-        jacobian : ndarray (K, J, n_params)
-            Row k: ``self.from_vector(values[k]).wv_jacobian(levels, freq)``.
-
-        Notes
-        -----
-        This default builds each row's process. A family overrides it with a vectorised
-        closed form that gives the same numbers bit for bit (the built-ins WN, RW, GM, QN,
-        RR); the GMWM binding (:class:`stochmod.fit.engine.Problem`) then evaluates its model
-        without building Process objects (:func:`wv_rows_domains`).
-        """
-        values = np.asarray(values, dtype=np.float64).reshape(-1, self.n_params)
-        levels = check_positive_int(levels, name="levels")
-        wv = np.empty((values.shape[0], levels))
-        jac = np.empty((values.shape[0], levels, self.n_params))
-        for k, row in enumerate(values):
-            p = self.from_vector(row)
-            wv[k] = p.wv(levels, freq)
-            jac[k] = p.wv_jacobian(levels, freq)
-        return wv, jac
-
     def wv_sampling_covariance(self, n_coef: ArrayLike, freq: float,
                                wavelet: str = "haar") -> np.ndarray | None:
         """Covariance (J x J, u^4) of this component's empirical WV that :meth:`psd` does not
@@ -562,38 +527,13 @@ def _overrides(cls: type, name: str) -> bool:
     return getattr(cls, name) is not getattr(Process, name)
 
 
-def _owner(cls: type, name: str) -> type:
-    """The class of `cls`'s MRO that defines attribute `name`."""
-    return next(c for c in cls.__mro__ if name in vars(c))
-
-
-def wv_rows_domains(cls: type[Process]) -> tuple[Domain, ...] | None:
-    """The domains of `cls`'s parameters, in order, when the family overrides
-    :meth:`Process.haar_wv_rows` (in the class that defines its :meth:`~Process.wv` and
-    :meth:`~Process.wv_jacobian`, or below) and its instances are nothing more than their
-    scalar values checked against those domains (the fast path of
-    :meth:`Process.from_unconstrained`); None otherwise. A binding may then evaluate the family's WV from parameter vectors alone,
-    with the same domain checks and the same numbers as through Process objects."""
-    if not _overrides(cls, "haar_wv_rows"):
-        return None
-    # a subclass that changes wv or wv_jacobian without its own haar_wv_rows keeps Process objects
-    rows_owner = _owner(cls, "haar_wv_rows")
-    if not all(issubclass(rows_owner, _owner(cls, name)) for name in ("wv", "wv_jacobian")):
-        return None
+def scalar_domains(cls: type[Process]) -> tuple[Domain, ...] | None:
+    """The domains of `cls`'s parameters, in order, when its instances are nothing more than
+    their scalar values checked against those domains (the fast path of
+    :meth:`Process.from_unconstrained`: every parameter a scalar of a built-in scalar domain,
+    the base class's construction kept); None otherwise."""
     layout = _scalar_layout(cls)
     return None if layout is None else tuple(domain for _, domain, _ in layout)
-
-
-def wv_kernel(cls: type[Process]) -> Any:
-    """`cls`'s :attr:`Process.haar_wv_kernel` when the family has a vector form
-    (:func:`wv_rows_domains`) and declares the kernel in the class that defines its
-    :meth:`~Process.haar_wv_rows`, or below (a subclass that changes the rows does not inherit
-    its parent's kernel); None otherwise."""
-    kernel = getattr(cls, "haar_wv_kernel", None)
-    if kernel is None or wv_rows_domains(cls) is None:
-        return None
-    owns = issubclass(_owner(cls, "haar_wv_kernel"), _owner(cls, "haar_wv_rows"))
-    return kernel if owns else None
 
 
 def declares_psd(process: Process | type[Process]) -> bool:
@@ -647,7 +587,7 @@ def _field_names(cls: type[Process]) -> tuple[str, ...]:
     return tuple(f.name for f in attrs.fields(cls))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def declares_block(cls: type[Process]) -> bool:
     """Whether the family declares its state-space block: it overrides
     :meth:`Process.continuous_block` or :meth:`Process.discrete_block`, or

@@ -7,14 +7,15 @@ Process objects each evaluation rebuilds every component (domain checks, attrs i
 evaluates each one's closed form separately. :class:`VectorBinding` maps the unconstrained
 vector to parameter values with the domains' own maps and membership tests, and asks each
 family for all its components (and all the points) in one call of
-:meth:`~stochmod.core.process.Process.haar_wv_rows`. The numbers are the same, bit for bit, as
+:meth:`~stochmod.core.vectorised_wv.VectorisedWV.haar_wv_rows`. The numbers are the same, bit for bit, as
 ``model.from_unconstrained(theta).wv(J)`` and ``wv_jacobian(J)``: the same elementwise
 operations, the components summed in the model's order.
 
-It applies when every component's family overrides ``haar_wv_rows`` and is rebuilt by the
+It applies when every component's family declares the vectorised-WV protocol
+(:class:`~stochmod.core.vectorised_wv.VectorisedWV`, its rows in force) and is rebuilt by the
 fast path of :meth:`~stochmod.core.process.Process.from_unconstrained` (scalar parameters of
-built-in domains, no further checks: :func:`~stochmod.core.process.wv_rows_domains`): the
-built-ins WN, RW, GM, QN and RR. Any other model keeps the Process path.
+built-in domains, no further checks: :func:`~stochmod.core.vectorised_wv.wv_rows_domains`):
+the built-ins WN, RW, GM, QN and RR. Any other model keeps the Process path.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import numpy as np
 
 from stochmod.core.model import Model
 from stochmod.core.params import Domain, scalar_contains
-from stochmod.core.process import Process, wv_kernel, wv_rows_domains
+from stochmod.core.process import Process
+from stochmod.core.vectorised_wv import wv_kernel, wv_rows_domains
 
 __all__ = ["VectorBinding"]
 
@@ -61,7 +63,7 @@ class VectorBinding:
         self._families = [(template.processes[ks[0]], ks) for ks in groups.values()]
         # one point (:meth:`point`): each domain's membership test
         self._tests = [(scalar_contains(d.name), cols) for d, cols in self._domains]
-        # the components' kernels (Process.haar_wv_kernel), when every one has one
+        # the components' kernels (VectorisedWV.haar_wv_kernel), when every one has one
         kernels = [wv_kernel(type(p)) for p in template.processes]
         self._kernels = None if any(k is None for k in kernels) else list(zip(kernels, self.slices))
         self._m = 2.0 ** np.arange(self.levels)
@@ -70,7 +72,7 @@ class VectorBinding:
     @classmethod
     def of(cls, template: Model, levels: int) -> VectorBinding | None:
         """The vector binding of `template`, or None when a component's family needs its
-        Process objects (:func:`~stochmod.core.process.wv_rows_domains`)."""
+        Process objects (:func:`~stochmod.core.vectorised_wv.wv_rows_domains`)."""
         domains: list[Domain] = []
         for p in template.processes:
             found = wv_rows_domains(type(p))
@@ -108,8 +110,8 @@ class VectorBinding:
         vector (J, n) at one unconstrained vector `theta` (n,), or None when it leaves its
         domains: :meth:`values` and :meth:`evaluate` for one row, the same numbers, with the
         domain tests done value by value; by the components' kernels
-        (:attr:`~stochmod.core.process.Process.haar_wv_kernel`) when every one has one (the same
-        digits again)."""
+        (:attr:`~stochmod.core.vectorised_wv.VectorisedWV.haar_wv_kernel`) when every one has
+        one (the same digits again)."""
         if len(self._domains) == 1:
             values = self._domains[0][0].from_unconstrained(theta)
         else:

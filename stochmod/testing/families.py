@@ -56,6 +56,10 @@ The checks (names as in :data:`CHECKS`):
     back (rel 1e-12), and a single IEEE coefficient (Q, N, K, R) gives the Allan line of the
     reading (``2 wv`` against ``3 Q^2/tau^2``, ``N^2/tau``, ``K^2 tau/3``, ``R^2 tau^2/2`` at
     ``m >= 64``, rel 1e-3). Skipped for families built from no reading.
+``wv_rows``
+    for a family that declares :class:`~stochmod.core.vectorised_wv.VectorisedWV`: its
+    ``haar_wv_rows`` are each row's ``wv`` and ``wv_jacobian`` bit for bit, and its
+    ``haar_wv_kernel``, where in force, the rows' digits (WV added to a non-zero start).
 
 Combiners (plugin point ``stochmod_combiners``) are checked by :func:`check_combiner`
 (see :mod:`stochmod.testing.combiners`): weights sum to 1, equal inputs give the input back,
@@ -81,10 +85,11 @@ from stochmod.core.coefficients import COEFFICIENTS
 from stochmod.testing.combiners import check_combiner
 from stochmod.core.errors import DomainError, InputError
 from stochmod.core.params import ROLES, get_domain, pacf_to_ar
-from stochmod.core.process import Process, as_generator, declares_psd, simulate_block, wv_kernel
+from stochmod.core.process import Process, as_generator, declares_psd, simulate_block
 from stochmod.core.tables import format_number, format_table
 from stochmod.core.statespace import StateSpaceBlock, compose_steps
 from stochmod.core.theory import wv_from_autocovariance, wv_from_psd
+from stochmod.core.vectorised_wv import VectorisedWV, declares_wv_rows, wv_kernel, wv_rows_domains
 
 __all__ = [
     "CHECKS",
@@ -711,15 +716,23 @@ def check_wv_jacobian(process: Process | type[Process], freq: float = 100.0, *, 
 
 def check_wv_rows(process: Process | type[Process], freq: float = 100.0, *, rng: RngLike = 0,
                   levels: int = 12, rows: int = 16) -> Figures:
-    """A family's own ``haar_wv_rows`` gives, row by row and bit for bit, the
-    ``wv(levels, freq)`` and ``wv_jacobian(levels, freq)`` of the process each row builds
-    (the contract's rule: the GMWM binding uses the rows in place of Process objects). The
-    rows are the example and `rows - 1` points drawn around it in the unconstrained space
-    (sd 2). Not applicable when the family keeps the base class's rows."""
+    """A family that declares the vectorised-WV protocol
+    (:class:`~stochmod.core.vectorised_wv.VectorisedWV`) gives by its ``haar_wv_rows``, row by
+    row and bit for bit, the ``wv(levels, freq)`` and ``wv_jacobian(levels, freq)`` of the
+    process each row builds, and by its ``haar_wv_kernel``, where it has one in force, the
+    rows' digits again (the contract's rule: the GMWM binding uses them in place of Process
+    objects). The rows are the example and `rows - 1` points drawn around it in the
+    unconstrained space (sd 2). Not applicable when the family does not declare the protocol,
+    or inherits rows that are not in force (a subclass that changes ``wv`` or
+    ``wv_jacobian``: :func:`~stochmod.core.vectorised_wv.declares_wv_rows`)."""
     freq = check_freq(freq)
     p = _instance(process, freq)
-    if not _overrides(type(p), "haar_wv_rows"):
-        raise NotApplicable("the family keeps the base class's haar_wv_rows (built from wv)")
+    if not isinstance(p, VectorisedWV):
+        raise NotApplicable("the family does not declare the vectorised-WV protocol "
+                            "(VectorisedWV): it is evaluated through Process objects")
+    if not declares_wv_rows(type(p)):
+        raise NotApplicable("the family changes wv or wv_jacobian below the class that defines "
+                            "its haar_wv_rows: those rows are not in force")
     gen = as_generator(rng)
     theta = p.to_unconstrained()
     points = [p] + [p.from_unconstrained(theta + 2.0 * gen.standard_normal(theta.size))
@@ -736,13 +749,13 @@ def check_wv_rows(process: Process | type[Process], freq: float = 100.0, *, rng:
             if not np.array_equal(got, np.asarray(want, dtype=float)):
                 raise AssertionError(f"{p!r}.haar_wv_rows row {k} ({q!r}) differs from its "
                                      f"{what}: max |diff| {np.max(np.abs(got - want)):.3g}")
-    return {"levels": levels, "rows": rows,
+    return {"levels": levels, "rows": rows, "binding": wv_rows_domains(type(p)) is not None,
             "kernel_rows": _check_wv_kernel(type(p), values, wv, jac, levels, freq)}
 
 
 def _check_wv_kernel(cls: type[Process], values: np.ndarray, wv: np.ndarray, jac: np.ndarray,
                      levels: int, freq: float) -> int:
-    """The family's :attr:`~stochmod.core.process.Process.haar_wv_kernel`, where it applies (returns
+    """The family's :attr:`~stochmod.core.vectorised_wv.VectorisedWV.haar_wv_kernel`, where it applies (returns
     True), adds row k's WV to what `wv` holds and writes its Jacobian, bit for bit the rows'
     `wv[k]` and `jac[k]` (the contract: the GMWM optimizer sums the kernels in place of the
     rows). The WV is added to a non-zero start to check that it is added. Returns how many

@@ -238,10 +238,10 @@ class OUWrongJacobian(OU):
 def test_the_kit_passes_a_correct_family(register) -> None:
     report = check_family(register(OU), freq=100.0, rng=5)
     report.raise_if_failed()
-    # every check applies to a stateful stationary family, but wv_rows: OU keeps the base
-    # class's rows (built from its wv)
+    # every check applies to a stateful stationary family, but wv_rows: OU does not declare
+    # the vectorised-WV protocol
     assert report.passed == tuple(c for c in CHECKS if c != "wv_rows")
-    assert "base class" in report.skipped["wv_rows"]
+    assert "VectorisedWV" in report.skipped["wv_rows"]
     # figures are measurements: the PSD integral equals sigma2 = 1 of the example
     assert report.figures["psd_integral"]["integral"] == pytest.approx(1.0, rel=1e-9)
     assert report.figures["rediscretisation"]["n_states"] == 1
@@ -250,8 +250,8 @@ def test_the_kit_passes_a_correct_family(register) -> None:
 @pytest.mark.parametrize(
     ("cls", "expected"),
     [
-        # ... and wv_rows: the rows inherited from WN no longer agree with the changed wv
-        (WNWrongWV, {"wv_monte_carlo", "wv_fallbacks", "wv_jacobian", "ieee952", "wv_rows"}),
+        # (wv_rows is skipped: the rows inherited from WN are not in force below a changed wv)
+        (WNWrongWV, {"wv_monte_carlo", "wv_fallbacks", "wv_jacobian", "ieee952"}),
         (WNWrongPSD, {"psd_integral", "wv_fallbacks"}),
         (WNNegativeWV, {"wv_domain"}),
         (WNNoValidation, {"bad_values"}),
@@ -425,15 +425,17 @@ def test_wv_rows_check_catches_a_row_one_ulp_off():
     assert check_wv_rows(GM, 100.0, rng=2)["rows"] == 16
     with pytest.raises(AssertionError, match="row 15 .* differs from its wv"):
         check_wv_rows(OffByOneUlp, 100.0, rng=2)
-    with pytest.raises(NotApplicable, match="base class"):
+    with pytest.raises(NotApplicable, match="does not declare the vectorised-WV protocol"):
         check_wv_rows(stochmod.get_process("AR"), 100.0)
+    with pytest.raises(NotApplicable, match="not in force"):  # inherited rows below a changed wv
+        check_wv_rows(WNWrongWV, 100.0)
 
 
 def test_wv_rows_check_holds_a_kernel_to_the_rows_bit_for_bit():
-    """check_wv_rows also runs a family's haar_wv_kernel (Process.haar_wv_kernel) on each row:
-    GM's and WN's kernels give their rows' digits; a kernel one ulp off, or one that
+    """check_wv_rows also runs a family's haar_wv_kernel (VectorisedWV.haar_wv_kernel) on each
+    row: GM's and WN's kernels give their rows' digits; a kernel one ulp off, or one that
     overwrites the WV instead of adding to it, fails."""
-    from stochmod.core.process import wv_kernel
+    from stochmod.core.vectorised_wv import wv_kernel
     from stochmod.testing import check_wv_rows
     from stochmod_gm import GM
     from stochmod_wn import WN
