@@ -41,6 +41,8 @@ _LAZY: dict[str, tuple[str, ...]] = {
     "stochmod.fit.validation": ("validate",),
     "stochmod.fit.garch": ("fit_garch",),
     "stochmod.redundant.combination": ("combine",),
+    "stochmod.io.calibration": ("Calibration",),
+    "stochmod.workflows.calibrate": ("calibrate",),
 }
 _LAZY_NAMES = {name: module for module, names in _LAZY.items() for name in names}
 
@@ -58,7 +60,9 @@ if TYPE_CHECKING:  # the same names for type checkers and editors
     from stochmod.fit.selection import select
     from stochmod.fit.validation import validate
     from stochmod.plugin.spec import model_from_spec
+    from stochmod.io.calibration import Calibration
     from stochmod.redundant.combination import combine
+    from stochmod.workflows.calibrate import calibrate
 
 __version__ = "0.1.0"
 
@@ -85,6 +89,9 @@ __all__ = [
     "select",
     "validate",
     "fit_garch",
+    # the main job
+    "calibrate",
+    "Calibration",
     # redundant sensors
     "combine",
     "combiner_names",

@@ -132,7 +132,10 @@ def test_calibrate_triad_gives_every_axis_of_a_sensor_the_same_structure(walk_se
     out = tmp_path / "out"
     assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW", "--no-plots",
                  "--out", str(out), "--triad"]) == 0
-    assert "summed wvic" in capsys.readouterr().out
+    assert "structures chosen per triad: gyro_x, gyro_y, gyro_z: WN+RW" in capsys.readouterr().out
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW", "--no-plots",
+                 "--out", str(out), "--triad", "--verbose"]) == 0
+    assert "summed wvic" in capsys.readouterr().out  # the criteria with --verbose
     report = json.loads((out / "calibration.json").read_text())
     (triad,) = report["triads"]
     assert triad["structure"] == triad_select(walk_selections).structure == "WN+RW"

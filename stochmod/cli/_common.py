@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from typing import Any
 
@@ -13,7 +12,8 @@ import numpy as np
 
 from stochmod.core.checks import check_freq
 from stochmod.core.errors import InputError
-from stochmod.io.recording import Recording, read_recording
+from stochmod.core.jsonable import to_jsonable
+from stochmod.io.recording import Recording, column_replicates, read_recording
 from stochmod.io.sensors import check_static_magnitudes, declare_units
 
 #: Relative difference between --freq and the time stamps' rate that is a contradiction.
@@ -156,9 +156,12 @@ def _refuse_clock_columns(rec: Recording, named: list[str] | None) -> None:
 def declared_recording(rec: Recording, args: argparse.Namespace, *, required: bool
                        ) -> Recording:
     """`rec` with each column's declared kind and unit (:func:`stochmod.io.sensors.declare_units`
-    from the file and ``--unit``, ``--gyro-unit``, ``--accel-unit``, ``--assume-si``): its
+    from the file and ``--sensor``, ``--unit``, ``--gyro-unit``, ``--accel-unit``,
+    ``--assume-si``): its
     :attr:`~stochmod.io.recording.Recording.units` are the declared ones."""
-    declared = declare_units(rec.columns, rec.units, rec.kinds, unit=getattr(args, "unit", None),
+    sensor = getattr(args, "sensor", None)  # what every column measures, where the file is silent
+    kinds = rec.kinds if rec.kinds is not None or sensor is None else (sensor,) * len(rec.columns)
+    declared = declare_units(rec.columns, rec.units, kinds, unit=getattr(args, "unit", None),
                              gyro_unit=getattr(args, "gyro_unit", None),
                              accel_unit=getattr(args, "accel_unit", None),
                              assume_si=getattr(args, "assume_si", False), required=required)
@@ -193,32 +196,6 @@ def load_segments(args: argparse.Namespace, path: str | None = None
     ``args.file`` (``calibrate --pooled`` reads several files with the same options)."""
     rec, freq = _read(args, True, path)
     return gap_free_segments(rec), freq
-
-
-def column_replicates(segments: list[Recording], k: int) -> np.ndarray | list[np.ndarray]:
-    """Column `k` of the segments: one signal, or the list of the segments' signals
-    (replicates for :func:`stochmod.gmwm` / :func:`stochmod.select`)."""
-    xs = [s.data[:, k] for s in segments]
-    return xs[0] if len(xs) == 1 else xs
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Convert numpy scalars/arrays (recursively) into JSON-safe Python objects.
-
-    Non-finite floats become ``None`` so that the output is strict JSON.
-    """
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        value = float(obj)
-        return value if math.isfinite(value) else None
-    return obj
 
 
 def print_json(obj: Any) -> None:

@@ -1,12 +1,13 @@
-"""``stochmod calibrate``: the main job. Select and fit a model per column, report, and export
-the Kalman-filter augmentation (``calibration.json``) and validation figures."""
+"""``stochmod calibrate``: the main job on the command line. It reads the recording, calls the
+library's main job (:mod:`stochmod.workflows.calibrate`), writes ``calibration.json``
+(:class:`stochmod.io.calibration.Calibration`), the figures, exports and report, and prints
+one block per axis."""
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures
 import contextlib
-import json
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,26 +18,42 @@ import numpy as np
 
 from stochmod.cli import FLEET_WARM_MODULE
 from stochmod.cli import _calibrate_outputs as extras
-from stochmod.cli._common import (add_input_arguments, column_replicates, declared_recording,
-                                  load_segments, longest_segment, print_json, to_jsonable)
-from stochmod.cli.select import add_selection_arguments, select_columns, selection_options
-from stochmod.output.datasheet import datasheet_reading
-from stochmod.core.errors import EstimationError, InputError
-from stochmod.workflows.fleet import SerialExecutor, UnitSteps, run_fleet
+from stochmod.cli._common import add_input_arguments, declared_recording, load_segments, print_json
+from stochmod.cli.select import add_selection_arguments, selection_options
+from stochmod.core.errors import InputError
+from stochmod.core.tables import format_table
+from stochmod.core.units import SENSORS
 from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
+from stochmod.empirical.allan_reading import AllanReading
 from stochmod.fit.results import GMWMResult
-from stochmod.fit.selection import SelectionResult, select
+from stochmod.fit.selection import SelectionResult
 from stochmod.fit.verdict import verdict
 from stochmod.io.recording import Recording
-from stochmod.core.model import augment_axes
-from stochmod.core.tables import format_table
-from stochmod.empirical.allan_reading import AllanReading
-from stochmod.core.statespace import StateSpaceBlock
-from stochmod.core.units import SENSORS
+from stochmod.output.datasheet import datasheet_reading
+from stochmod.workflows.calibrate import (
+    CalibrationRun,
+    assemble,
+    column_unit,
+    prepare,
+    select_column,
+    select_columns,
+)
+from stochmod.workflows.fleet import SerialExecutor, UnitSteps, run_fleet
 
-__all__ = ["register", "run", "calibrate_file", "calibration_report", "SIMULATIONS_PER_TASK",
-           "UnitInput", "ColumnResult", "UNIT_STEPS", "calibrate_unit", "read_unit",
-           "unit_columns", "select_unit_column", "finish_unit"]
+__all__ = [
+    "SIMULATIONS_PER_TASK",
+    "UNIT_STEPS",
+    "ColumnResult",
+    "UnitInput",
+    "calibrate_file",
+    "calibrate_unit",
+    "finish_unit",
+    "read_unit",
+    "register",
+    "run",
+    "select_unit_column",
+    "unit_columns",
+]
 
 #: Simulated series per task of the figures on a pool (the default 20 a column: two tasks).
 SIMULATIONS_PER_TASK = 10
@@ -74,6 +91,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--jobs", type=int, default=2, metavar="N",
                    help="worker processes for the selection's fits and the figures (default 2; "
                         "1: all in this process)")
+    p.add_argument("--verbose", action="store_true",
+                   help="print every parameter, the runner-up of each selection, the triad "
+                        "criteria and the datasheets' parameter tables")
+    p.add_argument("--keep-fitted", action="store_true",
+                   help="use the models as fitted: do not replace a component that is a simpler "
+                        "term on the record (a GM of Tc below the sampling interval by white "
+                        "noise, beyond the record by a random walk)")
     extras.add_output_arguments(p)
     p.add_argument("--pooled", action="store_true",
                    help="FILE FILE ...: replicates of one sensor model; fit one model per column "
@@ -99,57 +123,6 @@ def _input(args: argparse.Namespace) -> tuple[list[Recording], float]:
     if args.n != DEFAULT_EXAMPLE_N:
         raise InputError("--n applies to the bundled example only (no FILE)")
     return load_segments(args)
-
-
-def _block_dict(block: StateSpaceBlock) -> dict[str, Any]:
-    return {"state_names": list(block.state_names), "Phi": block.Phi, "Q": block.Q,
-            "H": block.H, "P0": block.P0, "white_var": block.white_var, "dt": block.dt}
-
-
-def _safe(fn: Any) -> Any:
-    """Value of an inference accessor, or None where the fit is not identified."""
-    try:
-        return fn()
-    except EstimationError:
-        return None
-
-
-def calibration_report(results: list[SelectionResult], rec: Recording, freq: float, dt: float,
-                       scale: float = 1.0) -> dict[str, Any]:
-    """The content of ``calibration.json`` (JSON-safe after ``to_jsonable``)."""
-    columns: dict[str, Any] = {}
-    for sel in results:
-        best = sel.best
-        phys = _safe(best.physical)
-        params = _safe(best.parameters)
-        jt = best.jtest
-        columns[sel.column] = {
-            "name": best.model.name,
-            "model": best.model.to_spec(),
-            "objective": best.objective,
-            "parameters": None if params is None else [attrs.asdict(e) for e in params],
-            "physical": None if phys is None else [attrs.asdict(e) for e in phys],
-            "jtest": None if jt is None else attrs.asdict(jt),
-            "criterion": sel.criterion,
-            "weighting": sel.weighting,
-            "ranking": [attrs.asdict(r) for r in sel.ranking],
-            "augmentation": _block_dict(best.model.augment(dt)),
-            "robust": sel.empirical.robust_info(),
-            "verdict": verdict(best, candidates=sel.ranking).to_dict(),
-        }
-    imu = augment_axes({sel.column: sel.best.model for sel in results}, dt)
-    return {
-        "source": rec.path,
-        "freq": freq,
-        "dt": dt,
-        "n": int(rec.data.shape[0]),
-        "scale": scale,
-        "columns": columns,
-        "imu_augmentation": {
-            "axes": list(imu.axes), "state_names": list(imu.state_names), "Phi": imu.Phi,
-            "Q": imu.Q, "H": imu.H, "P0": imu.P0, "white_var": imu.white_var, "dt": dt,
-        },
-    }
 
 
 def _filename(column: str) -> str:
@@ -228,22 +201,6 @@ def _pool(executor: Any, jobs: int) -> Iterator[Any]:
             yield pool
 
 
-def _table(results: list[SelectionResult], rec: Recording, freq: float,
-           units: dict[str, str], samples: str | None = None) -> str:
-    rows = []
-    for sel in results:
-        best = sel.best
-        jt = best.jtest
-        pval = "n/a" if jt is None else f"{jt.pvalue:.3g}"
-        signal_unit = units.get(sel.column)
-        for e in _safe(best.physical) or []:
-            unit = re.sub(r"\bu\b", f"({signal_unit})", e.unit) if signal_unit else e.unit
-            rows.append([sel.column, best.model.name, e.name, e.value, e.low, e.high, unit, pval])
-    samples = samples or f"{rec.data.shape[0]} samples"
-    title = (f"stochmod calibrate: {rec.path} ({samples} x {len(results)} "
-             f"column(s) at {freq:g} Hz); selected by {results[0].criterion}")
-    return format_table(["column", "model", "parameter", "value", "95% low", "95% high", "unit",
-                         "J-test p"], rows, title=title)
 
 
 def _replicates(args: argparse.Namespace) -> tuple[list[list[Recording]], float]:
@@ -266,35 +223,32 @@ def _replicates(args: argparse.Namespace) -> tuple[list[list[Recording]], float]
 def _run_pooled(args: argparse.Namespace) -> int:
     """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
     files, freq = _replicates(args)
-    segments = [s for segs in files for s in segs]
+    segments = _scaled(args, [s for segs in files for s in segs])
+    dt = _dt(args, freq)
     sizes = [sum(int(s.data.shape[0]) for s in segs) for segs in files]
-    if not args.scale > 0:
-        raise InputError(f"--scale must be positive, got {args.scale}")
-    dt = 1.0 / freq if args.dt is None else args.dt
     options = selection_options(args)
-    results, tests = [], {}
-    for k, column in enumerate(segments[0].columns):
-        xs = [seg.data[:, k] * args.scale for seg in segments]
-        results.append(select(xs, freq, names=[column], **options))
-        test = results[-1].best.pooled.test  # the selection's pooling of the replicates
-        tests[column] = None if test is None else attrs.asdict(test)
-    report = calibration_report(results, segments[0], freq, dt, args.scale)
-    report["n"] = sum(sizes)
-    report["replicates"] = {"files": [segs[0].path for segs in files], "n": sizes,
-                            "segments": len(segments), "equality_test": tests}
+    results = [select_column(segments, freq, k, **options)
+               for k in range(len(segments[0].columns))]
+    tests = {}
+    for sel in results:
+        test = sel.best.pooled.test  # the selection's pooling of the replicates
+        tests[sel.column] = None if test is None else attrs.asdict(test)
+    extra = {"scale": args.scale,
+             "replicates": {"files": [segs[0].path for segs in files], "n": sizes,
+                            "segments": len(segments), "equality_test": tests}}
+    run_ = assemble(segments, freq, results, dt=dt, replace=not args.keep_fitted, extra=extra)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "calibration.json"
-    path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
+    path = run_.calibration.write(out / "calibration.json")
     if args.json:
-        print_json(report)
+        print_json(run_.calibration.to_dict())
         return 0
-    print(_table(results, segments[0], freq, {}, f"{sum(sizes)} samples in {len(files)} replicates"))
+    print(_console(run_, args, f"{sum(sizes)} samples in {len(files)} replicates"))
     print(format_table(["column", "equality Q", "dof", "p-value"],
                        [[c, t["statistic"], t["dof"], t["pvalue"]] if t else [c, "-", "-", "-"]
                         for c, t in tests.items()],
-                       title=f"\nreplicates {', '.join(segs[0].path for segs in files)}: do they share one "
-                             "model?"))
+                       title=f"\nreplicates {', '.join(segs[0].path for segs in files)}: do they "
+                             "share one model?"))
     print(f"\nwrote {path}")
     return 0
 
@@ -313,7 +267,8 @@ def run(args: argparse.Namespace) -> int:
 @attrs.frozen
 class UnitInput:
     """A fleet unit's input, as its read task hands it on: the recording's gap-free segments
-    (scaled by ``--scale``), the sampling frequency (Hz) and the filter step ``dt`` (s)."""
+    (prepared: units declared, in SI, scaled by ``--scale``), the sampling frequency (Hz) and
+    the filter step ``dt`` (s)."""
 
     segments: list[Recording]
     freq: float
@@ -326,16 +281,44 @@ class UnitInput:
             r.data.nbytes + (0 if r.time is None else r.time.nbytes) for r in self.segments)
 
 
+def _scaled(args: argparse.Namespace, segments: list[Recording]) -> list[Recording]:
+    if not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    if args.scale == 1.0:  # x * 1.0 is x: no copy of the samples for the default
+        return segments
+    return [attrs.evolve(r, data=r.data * args.scale) for r in segments]
+
+
+def _dt(args: argparse.Namespace, freq: float) -> float:
+    dt = 1.0 / freq if args.dt is None else args.dt
+    if not dt > 0:
+        raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
+    return dt
+
+
+def _check_outputs(args: argparse.Namespace, segments: list[Recording]) -> None:
+    """Refuse, before any selection, the outputs that need sensor columns when one is not."""
+    rec = segments[0]
+    others = [c for k, c in enumerate(rec.columns) if rec.declared[k].kind not in SENSORS]
+    wanted = [o for o, on in (("--triad", args.triad), ("--export", args.export),
+                              ("--report", args.report)) if on]
+    if others and wanted:
+        raise InputError(f"{', '.join(wanted)} need gyro and accelerometer columns; "
+                         f"{', '.join(others)} is neither by its name or the file: name the "
+                         "columns (gyro_x ... accel_z), pass --sensor, or leave them out "
+                         "(--column)")
+
+
 def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
     """A unit's input (a fleet's first step, and :func:`calibrate_file`'s): its file read and
-    the options checked (before any selection), the data scaled."""
+    prepared (:func:`stochmod.workflows.calibrate.prepare`), the options checked before any
+    selection."""
     with executor.stage("read"):
-        segments, freq, dt = _checked_input(args)
-    _sensor_units(args, segments)  # bad options fail here, not in every column's task
+        segments, freq = _input(args)
+        segments = _scaled(args, prepare(segments))
+    _check_outputs(args, segments)
     selection_options(args)
-    if args.scale != 1.0:  # x * 1.0 is x: no copy of the samples for the default
-        segments = [attrs.evolve(r, data=r.data * args.scale) for r in segments]
-    return UnitInput(segments, freq, dt)
+    return UnitInput(segments, freq, _dt(args, freq))
 
 
 def unit_columns(unit: UnitInput) -> list[str]:
@@ -346,7 +329,7 @@ def unit_columns(unit: UnitInput) -> list[str]:
 @attrs.frozen
 class ColumnResult:
     """What a fleet unit's column task hands on: the column's selection and the Allan reading
-    of its data for the datasheet (None when the column's sensor is unknown)."""
+    of its data for the datasheet (None when the column is not a gyro or accelerometer)."""
 
     selection: SelectionResult
     reading: AllanReading | None
@@ -354,31 +337,30 @@ class ColumnResult:
 
 def select_unit_column(args: argparse.Namespace, unit: UnitInput, k: int,
                        executor: SerialExecutor) -> ColumnResult:
-    """A fleet unit's column `k` alone: its selection (equal to that column's in a selection
-    of every column: each column's fits are seeded by ``--seed`` and the candidate only) and
-    the Allan reading of its datasheet."""
-    column = unit_columns(unit)[k]
-    result = select(column_replicates(unit.segments, k), unit.freq, names=[column],
-                    executor=executor, **selection_options(args))
-    units = _sensor_units(args, unit.segments)
-    if units is None:
+    """A fleet unit's column `k` alone: its selection
+    (:func:`stochmod.workflows.calibrate.select_column`) and the Allan reading of its
+    datasheet."""
+    result = select_column(unit.segments, unit.freq, k, executor=executor,
+                           **selection_options(args))
+    rec = max(unit.segments, key=lambda r: r.data.shape[0])
+    if rec.declared[k].kind not in SENSORS:
         return ColumnResult(result, None)
     with executor.stage("allan"):
-        reading = datasheet_reading(longest_segment(unit.segments).data[:, k], unit.freq,
-                                    units[column])
+        reading = datasheet_reading(rec.data[:, k], unit.freq, column_unit(rec, k))
     return ColumnResult(result, reading)
 
 
 def finish_unit(args: argparse.Namespace, unit: UnitInput, columns: list[ColumnResult],
                 executor: SerialExecutor) -> dict[str, Any]:
-    """A fleet unit's last step: its outputs from its columns' tasks; its report."""
-    return _outputs(args, unit.segments, unit.freq, unit.dt, [c.selection for c in columns],
-                    executor, quiet=True, readings=[c.reading for c in columns])
+    """A fleet unit's last step: its outputs from its columns' tasks; its calibration's JSON
+    content."""
+    return _outputs(args, unit, [c.selection for c in columns], executor, quiet=True,
+                    readings=[c.reading for c in columns])
 
 
 def calibrate_unit(args: argparse.Namespace, executor: SerialExecutor) -> dict[str, Any]:
     """A fleet unit in one task: the quiet single-file calibration with its work items run in
-    the calling thread by `executor`; its report."""
+    the calling thread by `executor`; its calibration's JSON content."""
     return calibrate_file(args, executor=executor, quiet=True)
 
 
@@ -387,104 +369,111 @@ UNIT_STEPS = UnitSteps(calibrate_unit, read_unit, unit_columns, select_unit_colu
                        warm_module=FLEET_WARM_MODULE)
 
 
-def _checked_input(args: argparse.Namespace) -> tuple[list[Recording], float, float]:
-    """The recording's gap-free segments, its frequency and the filter step, with the
-    options checked."""
-    segments, freq = _input(args)
-    if not args.scale > 0:
-        raise InputError(f"--scale must be positive, got {args.scale}")
-    dt = 1.0 / freq if args.dt is None else args.dt
-    if not dt > 0:
-        raise InputError(f"--dt must be a positive number of seconds, got {args.dt}")
-    return segments, freq, dt
-
-
 def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool = False
                    ) -> dict[str, Any]:
     """The single-file calibration: writes OUT/calibration.json (and the asked outputs), prints
-    the tables (or the JSON with ``--json``; nothing when `quiet`) and returns the report.
-    `executor` runs the selection's fits and the figures (default: a pool of ``args.jobs``
-    worker processes)."""
+    one block per axis (or the JSON with ``--json``; nothing when `quiet`) and returns the
+    calibration's JSON content. `executor` runs the selection's fits and the figures (default:
+    a pool of ``args.jobs`` worker processes)."""
     unit = read_unit(args, executor if isinstance(executor, SerialExecutor) else SerialExecutor())
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
     with _pool(executor, jobs) as pool:
-        results = select_columns(unit.segments, unit.freq, selection_options(args), pool)
-        return _outputs(args, unit.segments, unit.freq, unit.dt, results, pool, quiet)
+        results = select_columns(unit.segments, unit.freq, executor=pool,
+                                 **selection_options(args))
+        return _outputs(args, unit, results, pool, quiet)
 
 
-def _sensor_units(args: argparse.Namespace, segments: list[Recording]) -> dict[str, str] | None:
-    """The columns' SI signal units: from their declared sensor kinds, else ``--sensor`` or the
-    column names (None when unknown and not needed; an error when ``--triad``, ``--export`` or
-    ``--report`` needs them)."""
-    declared = segments[0].declared
-    if declared and args.sensor is None and all(c.kind in SENSORS for c in declared):
-        return {c.column: SENSORS[c.kind] for c in declared}
-    return extras.column_units(list(segments[0].columns), args,
-                               required=bool(args.triad or args.export or args.report))
-
-
-def _outputs(args: argparse.Namespace, segments: list[Recording], freq: float, dt: float,
-             results: list[SelectionResult], pool: Any, quiet: bool,
-             readings: list[AllanReading | None] | None = None) -> dict[str, Any]:
-    """:func:`calibrate_file` once the (scaled) recording's gap-free `segments` are selected:
-    the report, the outputs and the printed tables, with `pool` running the figures
-    (`readings`: the columns' Allan readings for the datasheet, when made already)."""
-    # with --split-gaps the fits pool all segments; the Allan reading and the validation bands
-    # of the datasheet and report use the longest one
-    rec = longest_segment(segments)
-    data = rec.data
-    sensor_units = _sensor_units(args, segments)
+def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionResult],
+             pool: Any, quiet: bool, readings: list[AllanReading | None] | None = None
+             ) -> dict[str, Any]:
+    """:func:`calibrate_file` once the columns are selected: the calibration
+    (:func:`stochmod.workflows.calibrate.assemble`), its file, the figures, exports and report,
+    and the console (`readings`: the columns' Allan readings for the datasheet, when made
+    already)."""
+    segments = unit.segments
+    run_ = assemble(segments, unit.freq, results, dt=unit.dt, triad=args.triad,
+                    replace=not args.keep_fitted, readings=readings,
+                    extra={"scale": args.scale})
+    cal = run_.calibration
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    # datasheet units, triads, exports, report (stochmod.cli._calibrate_outputs)
-    triads: list[Any] = []
-    if args.triad:
-        results, triads = extras.apply_triad(results, sensor_units)
-    sheets = {} if sensor_units is None else extras.datasheet_section(results, data, sensor_units,
-                                                                      readings)
-    report = calibration_report(results, rec, freq, dt, args.scale)
-    if len(segments) > 1:
-        report["n"] = sum(int(r.data.shape[0]) for r in segments)
-        report["segments"] = [{"start": float(r.time[0]), "n": int(r.data.shape[0])}
-                              for r in segments]
-    report["units"] = {"signal": sensor_units, "note": "parameters: canonical per-sample values "
-                       "in the signal unit u (see physical for SI, datasheet for datasheet units)",
-                       "declared": None if rec.declared is None else
-                       {c.column: c.to_dict() for c in rec.declared}}
-    report["datasheet"] = {c: d.to_dict() for c, d in sheets.items()}
-    report["triads"] = [t.to_dict() for t in triads]
-    path = out / "calibration.json"
-    path.write_text(json.dumps(to_jsonable(report), indent=1, sort_keys=True, allow_nan=False))
-    samples = f"{report['n']} samples" + (f" in {len(segments)} gap-free segments"
-                                          if len(segments) > 1 else "")
-    exported = extras.write_exports_for(args, results, sensor_units, out)
+    path = cal.write(out / "calibration.json")
+    report = cal.to_dict()
+    sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
+    exported = extras.write_exports_for(args, list(run_.selections), sensors, out)
+    rec = run_.record
     units = XSENS_UNITS if args.file is None else rec.unit_map()
-    figures = [] if args.no_plots else _figures(results, out, args.n_sim, args.seed, units, pool)
+    selections = list(run_.selections)
+    figures = [] if args.no_plots else _figures(selections, out, args.n_sim, args.seed, units,
+                                                pool)
+    samples = f"{cal.n} samples" + (f" in {len(segments)} gap-free segments"
+                                    if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
-             f"({samples} at {freq:g} Hz)")
-    figures += extras.write_report_for(args, results, data, sheets, exported, triads, title, out)
+             f"({samples} at {unit.freq:g} Hz)")
+    figures += extras.write_report_for(args, selections, rec.data, run_.datasheets, exported,
+                                       list(run_.triads), title, out)
     if quiet:
         return report
     if args.json:
         print_json(report)
         return report
-    print(_table(results, rec, freq, units, samples))
-    print()
-    print(format_table(["column", "selected", "2nd", "criterion gap"],
-                       [[s.column, s.ranking[0].model, s.ranking[1].model if len(s.ranking) > 1 else "-",
-                         s.ranking[1].criterion - s.ranking[0].criterion if len(s.ranking) > 1 else "-"]
-                        for s in results]))
-    print()
-    print(format_table(["column", "verdict"],
-                       [[sel.column, verdict(sel.best, candidates=sel.ranking).summary()]
-                        for sel in results], title="verdict per axis (docs/calibrate.md)"))
-    for sel in results:
-        if sel.empirical.contamination is not None:
-            print(f"\n{sel.column}: {sel.empirical.contamination.summary()}")
-    for text in [t.summary() for t in triads] + [d.summary() for d in sheets.values()]:
-        print(f"\n{text}")
+    print(_console(run_, args, samples))
     written = [str(path)] + [str(f) for f in exported + figures]
     print(f"\nwrote {', '.join(written)}")
     return report
+
+
+def _console(run_: CalibrationRun, args: argparse.Namespace, samples: str) -> str:
+    """One block per axis: the final model, its verdict, what was replaced, the datasheet's
+    summary; ``--verbose`` adds every parameter, the runner-up and the triad criteria."""
+    cal = run_.calibration
+    crit = run_.selections[0].criterion if run_.selections else "-"
+    lines = [(f"stochmod calibrate: {cal.source or 'the bundled example'} ({samples} x "
+             f"{len(cal.axes)} column(s) at {cal.freq:g} Hz); selected by {crit}")]
+    for axis, sel, fin in zip(cal.axes, run_.selections, run_.finals):
+        declared = (cal.extra.get("units") or {}).get("declared") or {}
+        source = (declared.get(axis.column) or {}).get("source")
+        unit = f"{axis.unit or 'unit unknown'}" + (" (assumed)" if source == "assumed" else "")
+        lines += ["", f"{axis.column} ({axis.kind}, {unit}): {axis.model.name}",
+                  f"  verdict: {verdict(sel.best, candidates=sel.ranking).summary()}"]
+        for r in fin.replacements:
+            lines.append(f"  fitted {fin.fitted.model.name}: {r.summary()}")
+        sheet = run_.datasheets.get(axis.column)
+        if sheet is not None:
+            table = format_table(*sheet.summary_table(), digits=4)
+            lines += ["  " + line for line in table.splitlines()]
+        if args.verbose:
+            lines += ["", _parameters(sel.best, axis.unit), "",
+                      _runner_up(sel)]
+    if args.verbose:
+        lines += ["\n" + t.summary() for t in run_.triads]
+        lines += ["\n" + d.summary() for d in run_.datasheets.values()]
+    elif run_.triads:
+        chosen = "; ".join(f"{', '.join(t.columns)}: {t.structure}" for t in run_.triads)
+        lines += ["", f"structures chosen per triad: {chosen} (--verbose: criteria)"]
+    for sel in run_.selections:
+        if sel.empirical.contamination is not None:
+            lines += ["", f"{sel.column}: {sel.empirical.contamination.summary()}"]
+    return "\n".join(lines)
+
+
+def _parameters(fit: GMWMResult, unit: str | None) -> str:
+    rows = []
+    try:
+        physical = fit.physical()
+    except Exception:  # noqa: BLE001 - a fit that is not identified has no intervals
+        physical = []
+    for e in physical:
+        shown = re.sub(r"\bu\b", f"({unit})", e.unit) if unit else e.unit
+        rows.append([e.name, e.value, e.low, e.high, shown])
+    return format_table(["parameter", "value", "95% low", "95% high", "unit"], rows)
+
+
+def _runner_up(sel: SelectionResult) -> str:
+    if len(sel.ranking) < 2:
+        return f"{sel.column}: the only candidate"
+    first, second = sel.ranking[0], sel.ranking[1]
+    return (f"{sel.column}: selected {first.model}, runner-up {second.model} "
+            f"(criterion gap {second.criterion - first.criterion:.4g})")

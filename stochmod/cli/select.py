@@ -5,13 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from stochmod.cli._common import add_input_arguments, column_replicates, load_segments, print_json
+from stochmod.cli._common import add_input_arguments, load_segments, print_json
 from stochmod.core.errors import InputError
-from stochmod.fit.selection import SelectionResult, select
-from stochmod.io.recording import Recording
 from stochmod.fit.lattice import default_families, default_max_counts
+from stochmod.workflows.calibrate import select_columns
 
-__all__ = ["register", "run", "add_selection_arguments", "select_columns", "selection_options"]
+__all__ = ["add_selection_arguments", "register", "run", "selection_options"]
 
 
 def add_selection_arguments(p: argparse.ArgumentParser) -> None:
@@ -75,17 +74,6 @@ def _max_counts(items: list[str]) -> dict[str, int]:
     return out
 
 
-def select_columns(segments: list[Recording], freq: float, options: dict[str, Any],
-                   executor: Any = None) -> list[SelectionResult]:
-    """One selection per column of the recording's gap-free `segments` (their pooled wavelet
-    variance when there are several: ``--split-gaps``)."""
-    columns = list(segments[0].columns)
-    if len(segments) == 1:
-        return select(segments[0].data, freq, names=columns, executor=executor, **options)
-    return [select(column_replicates(segments, k), freq, names=[c], executor=executor, **options)
-            for k, c in enumerate(columns)]
-
-
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``select`` subcommand."""
     p = subparsers.add_parser(
@@ -106,7 +94,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the selection on every selected column and print the rankings."""
     segments, freq = load_segments(args)
-    results = select_columns(segments, freq, selection_options(args))
+    results = select_columns(segments, freq, **selection_options(args))
     if args.json:
         print_json({"columns": {r.column: r.to_dict() for r in results}, "freq": freq})
         return 0

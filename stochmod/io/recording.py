@@ -17,9 +17,9 @@ from __future__ import annotations
 import abc
 import importlib
 import zipfile
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import attrs
@@ -27,13 +27,21 @@ import numpy as np
 
 from stochmod.core.checks import as_signals
 from stochmod.core.errors import InputError, StochmodError
-from stochmod.plugin.registry import readers
 from stochmod.core.tables import format_table
+from stochmod.core.units import parse_unit
 from stochmod.io.sensors import ColumnUnit
 from stochmod.io.timing import DEFAULT_GAP_FACTOR, TimingReport, analyse_timing
-from stochmod.core.units import parse_unit
+from stochmod.plugin.registry import readers
 
-__all__ = ["Recording", "Reader", "read_recording", "read_with", "import_optional", "format_names"]
+__all__ = [
+    "Reader",
+    "Recording",
+    "column_replicates",
+    "format_names",
+    "import_optional",
+    "read_recording",
+    "read_with",
+]
 
 
 def _tuple_or_none(value: Any) -> tuple[str | None, ...] | None:
@@ -400,3 +408,10 @@ def read_recording(
         freq = rec.freq if rec.freq is not None else timing.rate
         rec = attrs.evolve(rec, timing=timing, freq=freq)
     return rec.select(columns)
+
+
+def column_replicates(segments: Sequence[Recording], k: int) -> np.ndarray | list[np.ndarray]:
+    """Column `k` of a recording's gap-free segments: one signal, or the list of the segments'
+    signals (replicates for :func:`stochmod.gmwm` and :func:`stochmod.select`)."""
+    xs = [s.data[:, k] for s in segments]
+    return xs[0] if len(xs) == 1 else xs

@@ -28,21 +28,26 @@ readers return the records the filter takes (:class:`stochmod.nav.records.ImuDat
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from stochmod.core.errors import InputError, StochmodError
+from stochmod.core.errors import InputError
 from stochmod.core.model import Model
-from stochmod.core.units import STANDARD_GRAVITY, parse_unit
-from stochmod.plugin.spec import model_from_spec
+from stochmod.core.units import SENSORS, STANDARD_GRAVITY, parse_unit
+from stochmod.io.calibration import Calibration
+from stochmod.io.recording import read_with
 from stochmod.nav.emulate import AXES
 from stochmod.nav.records import GnssData, ImuData
-from stochmod.io.recording import read_with
 
-__all__ = ["read_imu_csv", "read_gnss_csv", "read_calibration", "calibration_record",
-           "IMU_COLUMNS", "GNSS_COLUMNS"]
+__all__ = [
+    "GNSS_COLUMNS",
+    "IMU_COLUMNS",
+    "calibration_record",
+    "read_calibration",
+    "read_gnss_csv",
+    "read_imu_csv",
+]
 
 IMU_COLUMNS: dict[str, tuple[str, ...]] = {
     "rate": ("time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
@@ -302,14 +307,14 @@ def _check_positions_against_velocity(path: Path, time: np.ndarray, lat: np.ndar
 
 
 def read_calibration(path: str | Path) -> dict[str, Model]:
-    """Per-axis error models from the ``calibration.json`` that ``stochmod calibrate`` writes.
+    """Per-axis final error models of a calibration file
+    (:class:`stochmod.io.calibration.Calibration`, written by ``stochmod calibrate``).
 
     Parameters
     ----------
     path : str or Path
-        The JSON file; its ``columns`` named ``gyro_x ... accel_z`` (case-insensitive) give
-        each axis's ``model`` spec (rad/s and m/s^2 units), bound to the spec's ``freq`` or the
-        file's ``freq``.
+        The JSON file; its columns named ``gyro_x ... accel_z`` (case-insensitive) give each
+        axis's final model (rad/s and m/s^2 units), bound to the file's ``freq``.
 
     Returns
     -------
@@ -319,67 +324,33 @@ def read_calibration(path: str | Path) -> dict[str, Model]:
     Raises
     ------
     InputError
-        Missing or unreadable file, missing axes, an axis given twice, a model that cannot be
-        built (the message names the axis).
+        Missing or unreadable file, a schema this stochmod does not read, missing axes, an
+        axis given twice, a model that cannot be built (the message names the axis), a gyro
+        or accelerometer axis whose unit is not SI.
     """
     path = Path(path)
-    data = _calibration_json(path)
-    columns = data.get("columns") if isinstance(data, dict) else None
-    if not isinstance(columns, dict):
-        raise InputError(f"{path} has no 'columns' object; write it with `stochmod calibrate`")
-    by_axis: dict[str, dict] = {}
-    for name, entry in columns.items():
-        key = str(name).strip().lower()
+    calibration = Calibration.read(path)
+    by_axis: dict[str, Model] = {}
+    for axis in calibration.axes:
+        key = axis.column.strip().lower()
         if key in by_axis:
             raise InputError(f"{path}: axis {key!r} appears more than once (case-insensitive)")
-        by_axis[key] = entry
+        wanted = SENSORS.get(key.split("_")[0])
+        if wanted is not None and axis.unit not in (None, wanted):
+            raise InputError(f"{path}: the model of {axis.column!r} is in {axis.unit}, not "
+                             f"{wanted}: the navigation filter needs SI models")
+        by_axis[key] = axis.model
     missing = [a for a in AXES if a not in by_axis]
     if missing:
         raise InputError(f"{path}: calibration has no column(s) {missing}; the navigation "
                          f"filter needs a model for each of {list(AXES)}")
-    models = {}
-    for axis in AXES:
-        entry = by_axis[axis]
-        spec = entry.get("model") if isinstance(entry, dict) else None
-        if spec is None:
-            raise InputError(f"{path}: column {axis!r} has no 'model'")
-        freq = spec.get("freq", data.get("freq")) if isinstance(spec, dict) else data.get("freq")
-        try:
-            model = model_from_spec(spec, freq)
-        except StochmodError as exc:
-            raise InputError(f"{path}: the model of {axis!r} cannot be built: {exc}") from None
-        if model.freq is None:
-            raise InputError(f"{path}: the model of {axis!r} has no sampling frequency ('freq')")
-        models[axis] = model
-    return models
-
-
-def _calibration_json(path: Path) -> object:
-    if not path.is_file():
-        raise InputError(f"no such calibration file: {path}")
-    try:
-        return json.loads(path.read_text())
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path} is not a JSON file: {exc}") from None
+    return {axis: by_axis[axis] for axis in AXES}
 
 
 def calibration_record(path: str | Path) -> float | None:
-    """Length (s) of the longest single record a ``calibration.json`` was fitted on: its ``n``
-    samples at ``freq``, or the longest of its ``segments`` (``--split-gaps``) or
-    ``replicates`` (``--pooled``), each of which resolves correlation times only up to its own
-    length. None when the file does not say (an older calibration)."""
-    path = Path(path)
-    data = _calibration_json(path)
-    if not isinstance(data, dict):
-        return None
-    sizes = data.get("n")
-    if isinstance(data.get("segments"), list):
-        sizes = [seg.get("n") for seg in data["segments"] if isinstance(seg, dict)]
-    elif isinstance(data.get("replicates"), dict):
-        sizes = data["replicates"].get("n")
-    sizes = sizes if isinstance(sizes, list) else [sizes]
-    sizes = [n for n in sizes if isinstance(n, (int, float)) and n > 0]
-    freq = data.get("freq")
-    if not sizes or not isinstance(freq, (int, float)) or not freq > 0:
-        return None
-    return float(max(sizes)) / float(freq)
+    """Length (s) of the longest single record a calibration file was fitted on
+    (:attr:`stochmod.io.calibration.Calibration.record_seconds`: segments of ``--split-gaps``
+    and replicates of ``--pooled`` count one by one, each resolving correlation times only up
+    to its own length). None when the file does not say (no sample count)."""
+    calibration = Calibration.read(path)
+    return calibration.record_seconds if calibration.n > 0 else None

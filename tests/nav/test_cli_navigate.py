@@ -235,9 +235,17 @@ def test_calibration_record_is_the_longest_single_record(tmp_path) -> None:
                        ({"freq": 100.0, "n": 1500, "segments": [{"start": 0.0, "n": 1000},
                                                                 {"start": 20.0, "n": 500}]}, 10.0),
                        ({"freq": 50.0, "n": 700, "replicates": {"n": [300, 400]}}, 8.0),
-                       ({"freq": 100.0}, None), ({"n": 10}, None), ([1, 2], None)]:
-        path.write_text(json.dumps(data))
+                       ({"freq": 100.0, "n": 1500, "record_sizes": [500, 1000], "schema": 2}, 10.0),
+                       ({"freq": 100.0}, None)]:
+        path.write_text(json.dumps({"columns": {}, **data}))
         assert calibration_record(path) == want, data
+    for data, message in [({"columns": {}, "n": 10}, "'freq' must be a positive number"),
+                          ([1, 2], "no 'columns' object"),
+                          ({"columns": {}, "freq": 100.0, "schema": 3}, "schema 3, written by a "
+                                                                         "newer stochmod")]:
+        path.write_text(json.dumps(data))
+        with pytest.raises(stochmod.core.errors.InputError, match=message):
+            calibration_record(path)
 
 
 @pytest.mark.slow
