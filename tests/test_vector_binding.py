@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import stochmod
-from stochmod.core.errors import DomainError, InputError
-from stochmod.fit.engine import Problem
-from stochmod.fit.vector_binding import VectorBinding
 from stochmod.core import geometric
+from stochmod.core.errors import DomainError, InputError
 from stochmod.core.geometric import haar_wv_positive, haar_wv_positive_rows
 from stochmod.core.vectorised_wv import VectorisedWV, declares_wv_rows, wv_kernel, wv_rows_domains
+from stochmod.fit.engine import Problem
+from stochmod.fit.vector_binding import VectorBinding
 
 FREQ = 100.0
 
@@ -160,9 +160,9 @@ def test_problem_with_the_vector_binding_is_the_process_path_bit_for_bit(spec: s
 def test_select_takes_the_wv_here_and_its_v_is_data_covariance_bit_for_bit() -> None:
     from concurrent.futures import ThreadPoolExecutor
 
+    from stochmod.empirical.wavelet_variance import wvar
     from stochmod.fit.selection import select
     from stochmod.fit.weighting import data_covariance
-    from stochmod.empirical.wavelet_variance import wvar
 
     truth = stochmod.model_from_spec("GM(beta=10.0, sigma2=1.0) + WN(sigma2=1.0)", FREQ)
     x = truth.simulate(3000, rng=4)

@@ -412,8 +412,9 @@ def test_strategy_keeps_an_instance_structure() -> None:
 def test_wv_rows_check_catches_a_row_one_ulp_off():
     """check_wv_rows compares a family's vectorised rows with its wv/wv_jacobian bit for bit:
     one entry moved by one ulp fails it; the family's own rows pass."""
-    from stochmod.testing import NotApplicable, check_wv_rows
     from stochmod_gm import GM
+
+    from stochmod.testing import NotApplicable, check_wv_rows
 
     class OffByOneUlp(GM):
         def haar_wv_rows(self, values, levels, freq):
@@ -435,10 +436,11 @@ def test_wv_rows_check_holds_a_kernel_to_the_rows_bit_for_bit():
     """check_wv_rows also runs a family's haar_wv_kernel (VectorisedWV.haar_wv_kernel) on each
     row: GM's and WN's kernels give their rows' digits; a kernel one ulp off, or one that
     overwrites the WV instead of adding to it, fails."""
-    from stochmod.core.vectorised_wv import wv_kernel
-    from stochmod.testing import check_wv_rows
     from stochmod_gm import GM
     from stochmod_wn import WN
+
+    from stochmod.core.vectorised_wv import wv_kernel
+    from stochmod.testing import check_wv_rows
 
     if wv_kernel(GM) is None or wv_kernel(WN) is None:
         pytest.skip("the kernels run uncompiled (STOCHMOD_DISABLE_JIT is set)")
