@@ -44,7 +44,8 @@ from stochmod.core.checks import as_signal, check_freq, check_positive_int
 from stochmod.core.errors import EstimationError, InputError
 from stochmod.core.geometric import AV_PEAK_VALUE, WV_PEAK_X
 from stochmod.core.tables import format_number, format_table
-from stochmod.empirical.allan import AllanVariance, avar, greenhall_edf, local_slopes
+from stochmod.empirical.allan import (AllanVariance, avar, greenhall_edf, local_slopes,
+                                      white_rate_edf)
 from stochmod.core.units import BI_FACTOR, convert, parse_unit
 
 __all__ = [
@@ -552,6 +553,16 @@ def _positive_float(value: float, name: str) -> float:
     return out
 
 
+def _edf(name: str, m: np.ndarray, n: int, overlapping: bool) -> np.ndarray:
+    """EDF of the Allan variance at averaging factors `m` of `n` rate samples under term
+    `name`'s noise: exact for white rate noise (:func:`~stochmod.empirical.allan.
+    white_rate_edf`), Greenhall & Riley's otherwise."""
+    if _NOISE[name] == 0:
+        return np.asarray(white_rate_edf(2, m, n, overlapping=overlapping), dtype=float)
+    return np.asarray(greenhall_edf(_NOISE[name], 2, m, n + 1, overlapping=overlapping),
+                      dtype=float)
+
+
 def allan_reading(
     x: ArrayLike,
     freq: float,
@@ -670,11 +681,8 @@ def allan_reading(
     chosen = {k: v for k, v in auto.items() if k in wanted and k not in user}
     chosen.update({k: v for k, v in user.items() if v is not None})
 
-    weights = {
-        name: np.asarray(greenhall_edf(_NOISE[name], 2, av.m[idx], y.size + 1,
-                                       overlapping=kind == "overlapping"), dtype=float) / 2.0
-        for name, idx in chosen.items()
-    }
+    weights = {name: _edf(name, av.m[idx], y.size, kind == "overlapping") / 2.0
+               for name, idx in chosen.items()}
 
     fits = _accept(av, weights, chosen, set(user), share, alpha)
     z = float(ndtri(1.0 - alpha / 2.0))
