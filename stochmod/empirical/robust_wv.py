@@ -89,6 +89,9 @@ __all__ = [
     "NoRootError",
     "robust_wvar",
     "sandwich_ratio",
+    "MAX_PATCH",
+    "isolated_patches",
+    "replace_patches",
 ]
 
 #: Names of the supported chi functions.
@@ -542,10 +545,12 @@ def isolated_patches(idx: ArrayLike, w: ArrayLike, max_patch: int = MAX_PATCH
     return idx[taken] + 1, gap[taken]
 
 
-def replace_patches(x: np.ndarray, first: np.ndarray, length: np.ndarray
+def replace_patches(x: np.ndarray, first: ArrayLike, length: ArrayLike
                     ) -> tuple[np.ndarray, np.ndarray]:
     """A copy of `x` with each patch (:func:`isolated_patches`) replaced by the straight line
     between the samples just before and just after it; and the replaced samples' indices."""
+    first = np.asarray(first, dtype=np.int64)
+    length = np.asarray(length, dtype=np.int64)
     lo = np.repeat(first - 1, length)
     hi = np.repeat(first + length, length)
     samples = lo + 1 + np.arange(lo.size) - np.repeat(np.cumsum(length) - length, length)
