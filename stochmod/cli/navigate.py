@@ -4,20 +4,22 @@ writing the trajectory with its 1-sigma, a text report and (with matplotlib) fig
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from stochmod.core.errors import InputError
 from stochmod.core.model import Model
-from stochmod.plugin.registry import get_process
 from stochmod.nav.alignment import InitialState
 from stochmod.nav.filter import ERROR_MODELS, LooselyCoupledFilter, NavResult
 from stochmod.nav.logs import calibration_record, read_calibration, read_gnss_csv, read_imu_csv
 from stochmod.nav.records import GnssData, ImuData
+from stochmod.plugin.registry import get_process
 
-__all__ = ["register", "run", "default_models", "TRAJECTORY_COLUMNS"]
+__all__ = ["TRAJECTORY_COLUMNS", "UNTRUSTED_STATUS", "default_models", "register", "run"]
 
 TRAJECTORY_COLUMNS = ("time", "lat", "lon", "height", "vn", "ve", "vd", "roll", "pitch",
                       "heading")
@@ -25,6 +27,10 @@ _DEG_H = math.pi / 180.0 / 3600.0
 #: Turn-on bias 1-sigma without --gyro-bias-sd / --accel-bias-sd (a low-grade MEMS IMU).
 DEFAULT_GYRO_BIAS_SD = 300.0 * _DEG_H
 DEFAULT_ACCEL_BIAS_SD = 0.05
+#: GNSS velocity 1-sigma per axis without --vel-sd, m/s.
+DEFAULT_VEL_SD = 0.2
+#: Exit status of a run whose solution fails the health rule (2: bad input).
+UNTRUSTED_STATUS = 3
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,7 +47,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "gyro_y, gyro_z, accel_x, accel_y, accel_z (rad/s, m/s^2, w.r.t. inertial space, "
             "body x forward / y right / z down) or time, dtheta_x..z, dv_x..z (rad, m/s over the "
             "interval ending at time). GNSS_FILE: time, lat, lon, height (deg, deg, m "
-            "ellipsoidal), optional vn, ve, vd (used when present) and sd_n, sd_e, sd_d (m)."
+            "ellipsoidal), optional vn, ve, vd (used when present) and sd_n, sd_e, sd_d (m). "
+            "The report ends with the filter's health: where and how it aligned, the share of "
+            "fixes the innovation gate rejected, its recoveries and the NIS per 60 s window. A "
+            "solution that fails the health rule (a measurement kind with more than 20 % of "
+            "its updates rejected, or a window's mean NIS after the first 60 s above 3 x its "
+            "99 % chi-square band) is reported as UNTRUSTED on stderr and the command exits "
+            "with status 3 unless --accept-untrusted; DIR/health.json holds the same."
         ),
     )
     p.add_argument("imu_file", metavar="IMU_FILE", help="IMU CSV (rates or increments)")
@@ -78,6 +90,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "resets its covariance: psi (default, the psi-angle model) or "
                         "modified-phi (Scherzinger & Reid's, the one pyins uses: choose it to "
                         "reproduce a pyins filter; docs/navigation.md, 'Reset')")
+    p.add_argument("--gate", default="0.9999", metavar="P|off",
+                   help="probability of the chi-square innovation gate (default 0.9999), or "
+                        "off: every update is applied")
+    p.add_argument("--recover-after", default="5", metavar="N|off",
+                   help="after N consecutive gate rejections of one kind, apply the next one "
+                        "after inflating the covariance (default 5; off: never; "
+                        "docs/navigation.md, 'Gating and recovery')")
+    p.add_argument("--init-position-sd", type=float, default=None, metavar="M",
+                   help="initial position 1-sigma, m (default: 3 with --init, the fix's sd "
+                        "when the filter aligns itself)")
+    p.add_argument("--init-velocity-sd", type=float, default=None, metavar="M_S",
+                   help="initial velocity 1-sigma, m/s (default 0.3 with --init, 0.5 aligned)")
+    p.add_argument("--init-level-sd", type=float, default=None, metavar="DEG",
+                   help="initial roll and pitch 1-sigma, deg (default 1 with --init, 2 aligned)")
+    p.add_argument("--init-heading-sd", type=float, default=None, metavar="DEG",
+                   help="initial heading 1-sigma, deg (default 3 with --init, 5 aligned)")
+    p.add_argument("--vel-sd", type=float, default=DEFAULT_VEL_SD, metavar="M_S",
+                   help=f"GNSS velocity 1-sigma per axis, m/s (default {DEFAULT_VEL_SD:g})")
+    p.add_argument("--accept-untrusted", action="store_true",
+                   help="exit with status 0 even when the solution fails the health rule "
+                        "(the warning and the report stay)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.set_defaults(func=run)
 
@@ -133,6 +166,22 @@ def _lever_arm_lines(args: argparse.Namespace, result: NavResult) -> list[str]:
             + ", ".join(f"{a} {v:.3f} +- {e:.3f}" for a, v, e in zip("xyz", arm, sd))]
 
 
+def _switch(text: str, name: str, parse: type) -> float | int | None:
+    """`text` as a number of type `parse`, or None for ``off``."""
+    if text.strip().lower() == "off":
+        return None
+    try:
+        return parse(text)
+    except ValueError:
+        raise InputError(f"{name} must be a number or off, got {text!r}") from None
+
+
+def _positive(value: float | None, name: str) -> float | None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    return value
+
+
 def _bias(value: float | None, default: float, name: str) -> float:
     if value is None:
         return default
@@ -163,7 +212,8 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
         f"turn-on bias 1-sigma: gyro {gyro_bias_sd:.3g} rad/s, accel {accel_bias_sd:.3g} m/s^2",
-        f"filter error model: {args.error_model}",
+        f"filter error model: {args.error_model}; GNSS velocity sd "
+        f"{'from the file' if gnss.sd_vel is not None else f'{args.vel_sd:g} m/s'}",
         "",
         result.summary(),
     ]
@@ -209,7 +259,9 @@ def _plots(out: Path, result: NavResult, gnss: GnssData, outages: list, t0: floa
 
 
 def run(args: argparse.Namespace) -> int:
-    """Read the inputs, run the filter and write the outputs."""
+    """Read the inputs, run the filter and write the outputs; the exit status is
+    :data:`UNTRUSTED_STATUS` when the solution fails the health rule (unless
+    ``--accept-untrusted``)."""
     imu = read_imu_csv(args.imu_file)
     gnss = read_gnss_csv(args.gnss_file)
     gyro, accel = _models(args, imu)
@@ -217,6 +269,17 @@ def run(args: argparse.Namespace) -> int:
     accel_bias_sd = _bias(args.accel_bias_sd, DEFAULT_ACCEL_BIAS_SD, "--accel-bias-sd")
     if not (math.isfinite(args.dt_filter) and args.dt_filter > 0):
         raise InputError(f"--dt-filter must be a positive number of s, got {args.dt_filter!r}")
+    gate = _switch(args.gate, "--gate", float)
+    if gate is not None and not 0.0 < gate < 1.0:
+        raise InputError(f"--gate must be a probability in (0, 1) or off, got {args.gate!r}")
+    recover_after = _switch(args.recover_after, "--recover-after", int)
+    if recover_after is not None and recover_after < 1:
+        raise InputError(f"--recover-after must be a whole number >= 1 or off, got "
+                         f"{args.recover_after!r}")
+    init_sd = tuple(_positive(v, f"--init-{name}-sd") for v, name in (
+        (args.init_position_sd, "position"), (args.init_velocity_sd, "velocity"),
+        (args.init_level_sd, "level"), (args.init_heading_sd, "heading")))
+    vel_sd = _positive(args.vel_sd, "--vel-sd")
     lever_arm_sd = _lever_arm_sd(args.lever_arm_sd)
     outages = [(float(s), float(d)) for s, d in args.outage]
     if any(d <= 0 for _, d in outages):
@@ -226,18 +289,36 @@ def run(args: argparse.Namespace) -> int:
     flt = LooselyCoupledFilter(gyro, accel, dt_filter=args.dt_filter, lever_arm=args.lever_arm,
                                gyro_bias_sd=gyro_bias_sd, accel_bias_sd=accel_bias_sd,
                                lever_arm_sd=lever_arm_sd, record=record,
-                               error_model=args.error_model)
+                               error_model=args.error_model, gate=gate,
+                               recover_after=recover_after, gnss_vel_sd=vel_sd)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
-                     init=_init(args.init, imu), outages=outages)
+                     init=_init(args.init, imu), outages=outages,
+                     init_sd=None if all(v is None for v in init_sd) else init_sd)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    header = ",".join(TRAJECTORY_COLUMNS + tuple(f"sd_{c}" for c in TRAJECTORY_COLUMNS[1:]))
-    np.savetxt(out / "trajectory.csv", trajectory_table(result), delimiter=",", fmt="%.12g",
-               header=header, comments="")
+    written = [_write_trajectory(out / "trajectory.csv", result)]
     report = _report(args, imu, gnss, result, gyro, accel, gyro_bias_sd, accel_bias_sd)
     (out / "report.txt").write_text(report)
-    figures = [] if args.no_plots else _plots(out, result, gnss, outages, float(imu.time[0]))
+    health = result.health()
+    (out / "health.json").write_text(json.dumps(health.to_dict(), indent=1) + "\n")
+    written += [out / "report.txt", out / "health.json"]
+    written += [] if args.no_plots else _plots(out, result, gnss, outages, float(imu.time[0]))
     print(report)
-    print(f"wrote {out / 'trajectory.csv'}, {out / 'report.txt'}"
-          + "".join(f", {f}" for f in figures))
-    return 0
+    print("wrote " + ", ".join(str(f) for f in written))
+    if health.trusted:
+        return 0
+    banner = "!" * 72
+    print(f"{banner}\nstochmod navigate: WARNING: UNTRUSTED SOLUTION\n"
+          + "\n".join(f"  - {r}" for r in health.reasons)
+          + f"\n  rule: {health.rule}\n"
+          + ("  (--accept-untrusted: exit status 0)\n" if args.accept_untrusted else
+             f"  exit status {UNTRUSTED_STATUS}; --accept-untrusted to accept it\n") + banner,
+          file=sys.stderr)
+    return 0 if args.accept_untrusted else UNTRUSTED_STATUS
+
+
+def _write_trajectory(path: Path, result: NavResult) -> Path:
+    header = ",".join(TRAJECTORY_COLUMNS + tuple(f"sd_{c}" for c in TRAJECTORY_COLUMNS[1:]))
+    np.savetxt(path, trajectory_table(result), delimiter=",", fmt="%.12g", header=header,
+               comments="")
+    return path

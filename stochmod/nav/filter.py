@@ -123,6 +123,8 @@ from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 __all__ = [
     "ERROR_MODELS",
     "NAV_STATES",
+    "Alignment",
+    "Health",
     "LooselyCoupledFilter",
     "NavResult",
     "RandomWalkEquivalent",
@@ -243,6 +245,147 @@ def matching_factor(y: np.ndarray, A: np.ndarray, R: np.ndarray, target: float) 
     return math.exp(hi)
 
 
+#: Below this speed (m/s) the start state counts as static (:class:`Alignment`).
+STATIC_SPEED = 0.5
+
+
+@attrs.frozen
+class Alignment:
+    """Where and how the filter started.
+
+    Attributes
+    ----------
+    time : float
+        Time of the initial state, s.
+    first_time : float
+        First IMU time stamp, s.
+    lat, lon : float
+        deg.
+    height : float
+        m.
+    speed : float
+        Speed of the initial state, m/s.
+    source : {"given", "gnss"}
+        ``"given"``: the caller's ``init``; ``"gnss"``: aligned in motion from GNSS
+        (:func:`~stochmod.nav.alignment.align_from_gnss`, heading from the course).
+    sd : tuple of float
+        Initial 1-sigma: position N/E/D (m), velocity (m/s), roll/pitch/heading (deg), 9 values.
+    """
+
+    time: float
+    first_time: float
+    lat: float
+    lon: float
+    height: float
+    speed: float
+    source: str
+    sd: tuple = ()
+
+    @property
+    def static(self) -> bool:
+        """Whether the start was at rest (speed below :data:`STATIC_SPEED`)."""
+        return self.speed < STATIC_SPEED
+
+    def describe(self) -> str:
+        """One line for reports."""
+        how = ("given initial state" if self.source == "given"
+               else "in-motion alignment from GNSS (heading from the course)")
+        sd = np.asarray(self.sd, dtype=float)
+        sig = "" if sd.size != 9 else (
+            f"; initial 1-sigma {sd[0]:.3g} m, {sd[3]:.3g} m/s, level {sd[6]:.3g}/{sd[7]:.3g} "
+            f"deg, heading {sd[8]:.3g} deg")
+        return (f"alignment: t = {self.time:.3f} s ({self.time - self.first_time:.3f} s after "
+                f"the first IMU sample) at {self.lat:.7f}, {self.lon:.7f} deg, "
+                f"{self.height:.2f} m; {'static' if self.static else 'in motion'} (speed "
+                f"{self.speed:.2f} m/s), {how}{sig}")
+
+
+#: The health rule (:meth:`NavResult.health`): a kind with more than this share of its updates
+#: rejected makes the solution untrusted.
+MAX_REJECTED_SHARE = 0.2
+#: Window of the windowed NIS, s.
+NIS_WINDOW = 60.0
+#: Windows that start less than this long (s) after the alignment are not judged (convergence).
+NIS_SETTLE = 60.0
+#: Two-sided probability of a window's chi-square band.
+NIS_BAND = 0.99
+#: A window is far out of its band when its mean NIS is more than this factor above the band's
+#: upper end (the filter is overconfident: its sigmas and its gate cannot be relied on). A mean
+#: below the band (noise sigmas pessimistic, common with receiver-reported sigmas) is reported,
+#: not judged.
+NIS_FAR = 3.0
+
+
+@attrs.frozen
+class Health:
+    """Whether a filter's solution can be trusted, and why (:meth:`NavResult.health`).
+
+    Attributes
+    ----------
+    trusted : bool
+        False when any kind has more than ``max_rejected`` of its updates rejected, or any
+        window after the settling time has its mean NIS far above its chi-square band.
+    reasons : tuple of str
+        One line per failed condition.
+    shares : dict of str to float
+        Rejected share of the updates, per kind.
+    recoveries : dict of str to int
+        Recoveries per kind.
+    windows : dict of str to ndarray
+        Per kind, rows ``(start s, end s, n updates, mean NIS, band low, band high, judged,
+        far)`` (:meth:`NavResult.nis_windows`).
+    alignment : Alignment or None
+    rule : str
+        The rule, in words.
+    """
+
+    trusted: bool
+    reasons: tuple
+    shares: dict
+    recoveries: dict
+    windows: dict = attrs.field(eq=False)
+    alignment: Alignment | None
+    rule: str
+
+    def describe(self) -> str:
+        """The health section of a report: alignment, rejections, recoveries, windowed NIS,
+        verdict."""
+        lines = ["Filter health"]
+        if self.alignment is not None:
+            lines.append(self.alignment.describe())
+        for kind, share in self.shares.items():
+            lines.append(f"{kind}: {share:.1%} of the updates rejected, "
+                         f"{self.recoveries.get(kind, 0)} recoveries")
+        rows = [[kind, f"{w[0]:.1f}", f"{w[1]:.1f}", int(w[2]), float(w[3]),
+                 f"[{w[4]:.3g}, {w[5]:.3g}]",
+                 "FAR ABOVE" if w[7] else ("settling" if not w[6] else
+                                           "below" if w[3] < w[4] else
+                                           "above" if w[3] > w[5] else "in band")]
+                for kind, arr in self.windows.items() for w in arr]
+        if rows:
+            lines.append(format_table(["measurement", "from s", "to s", "n", "mean NIS",
+                                       f"{NIS_BAND:.0%} band", ""], rows,
+                                      title="NIS per window (times from the first IMU sample)"))
+        lines.append(f"rule: {self.rule}")
+        if self.trusted:
+            lines.append("verdict: the solution passes the health rule")
+        else:
+            lines += ["verdict: UNTRUSTED SOLUTION"] + [f"  - {r}" for r in self.reasons]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """JSON-ready form."""
+        al = None if self.alignment is None else {
+            **attrs.asdict(self.alignment), "static": self.alignment.static,
+            "sd": list(self.alignment.sd)}
+        keys = ("start", "end", "n", "mean_nis", "band_low", "band_high", "judged", "far_out")
+        return {"trusted": self.trusted, "reasons": list(self.reasons), "rule": self.rule,
+                "rejected_share": dict(self.shares), "recoveries": dict(self.recoveries),
+                "alignment": al,
+                "nis_windows": {k: [dict(zip(keys, (float(v) for v in w))) for w in arr]
+                                for k, arr in self.windows.items()}}
+
+
 @attrs.frozen
 class NavResult(TrajectoryArrays):
     """Output of :meth:`LooselyCoupledFilter.run`.
@@ -274,6 +417,8 @@ class NavResult(TrajectoryArrays):
         Updates rejected by the innovation gate, per kind.
     recoveries : tuple of Recovery
         Each recovery from a run of rejected updates (module notes, "Gating and recovery").
+    alignment : Alignment
+        Where and how the filter started.
     nees : ndarray (k,) or None
         NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
     random_walks : tuple of RandomWalkEquivalent
@@ -297,6 +442,7 @@ class NavResult(TrajectoryArrays):
     random_walks: tuple = ()
     recoveries: tuple = ()
     recover_after: int | None = None
+    alignment: Alignment | None = None
 
     @property
     def lever_arm(self) -> np.ndarray | None:
@@ -312,6 +458,81 @@ class NavResult(TrajectoryArrays):
     def mean_nees(self) -> float | None:
         """Average NEES over the epochs (9 for an honest filter), or None without truth."""
         return None if self.nees is None else float(np.mean(self.nees))
+
+    def nis_windows(self, window: float = NIS_WINDOW, settle: float = NIS_SETTLE,
+                    band: float = NIS_BAND, far: float = NIS_FAR) -> dict[str, np.ndarray]:
+        """The NIS of every update (rejected ones too) over consecutive windows, per kind.
+
+        For ``n`` updates of dimension ``m`` in a window the sum of the NIS is chi-square with
+        ``n m`` degrees of freedom when the filter is consistent (Bar-Shalom, Li & Kirubarajan
+        2001, Section 5.4), so the window's mean NIS lies in ``chi2.ppf((1 -+ band) / 2, n m) /
+        n`` with probability `band`.
+
+        Parameters
+        ----------
+        window : float
+            Window length, s, from the alignment time on.
+        settle : float
+            Windows starting earlier than this (s) after the alignment are not judged.
+        band : float
+            Two-sided probability of the band.
+        far : float
+            A judged window whose mean NIS exceeds `far` times the band's upper end is far out
+            (overconfident); a mean below the band (pessimistic) is not.
+
+        Returns
+        -------
+        dict of str to ndarray (k, 8)
+            Rows ``(start, end, n, mean NIS, band low, band high, judged, far)``; start and
+            end in s from the first IMU sample.
+        """
+        t0 = float(self.time[0]) if self.time.size else 0.0
+        first = t0 if self.alignment is None else self.alignment.first_time
+        out = {}
+        for kind, arr in self.nis.items():
+            rows = []
+            if arr.size:
+                idx = np.floor((arr[:, 0] - t0) / window).astype(int)
+                for k in np.unique(idx):
+                    sel = arr[idx == k]
+                    n, m = sel.shape[0], int(sel[0, 2])
+                    lo, hi = chi2.ppf([(1 - band) / 2, (1 + band) / 2], n * m) / n
+                    mean = float(sel[:, 1].mean())
+                    start = t0 + k * window
+                    judged = start - t0 >= settle
+                    bad = judged and mean > far * hi
+                    rows.append((start - first, start + window - first, n, mean, lo, hi,
+                                 float(judged), float(bad)))
+            out[kind] = np.array(rows).reshape(-1, 8)
+        return out
+
+    def health(self, max_rejected: float = MAX_REJECTED_SHARE, **windows: float) -> Health:
+        """The health rule: the solution cannot be trusted when a measurement kind has more
+        than `max_rejected` of its updates rejected by the gate, or when any window after the
+        settling time has its mean NIS far above its chi-square band (:meth:`nis_windows`,
+        whose keywords `windows` takes). A mean NIS far above its band says the covariance is
+        too small for the errors (an overconfident filter, whose sigmas and gate decisions are
+        wrong); a share of rejections that large says the gate has been throwing away the
+        information the solution needs."""
+        opts = {"window": NIS_WINDOW, "settle": NIS_SETTLE, "band": NIS_BAND, "far": NIS_FAR,
+                **windows}
+        win = self.nis_windows(**opts)
+        shares = {k: self.rejected.get(k, 0) / max(a.shape[0], 1) for k, a in self.nis.items()}
+        recov = {k: sum(r.kind == k for r in self.recoveries) for k in self.nis}
+        reasons = [f"{k}: {v:.1%} of the updates rejected (more than {max_rejected:.0%})"
+                   for k, v in shares.items() if v > max_rejected]
+        for k, arr in win.items():
+            bad = arr[arr[:, 7] > 0]
+            if bad.size:
+                reasons.append(f"{k}: mean NIS far above its {opts['band']:.0%} chi-square band "
+                               f"in {bad.shape[0]} of {int(arr[:, 6].sum())} windows after "
+                               f"convergence (first at {bad[0, 0]:.1f}-{bad[0, 1]:.1f} s: "
+                               f"{bad[0, 3]:.3g}, band [{bad[0, 4]:.3g}, {bad[0, 5]:.3g}])")
+        rule = (f"untrusted when a measurement kind has more than {max_rejected:.0%} of its "
+                f"updates rejected, or the mean NIS of a {opts['window']:g} s window starting "
+                f"{opts['settle']:g} s or more after the alignment is above {opts['far']:g} x "
+                f"the upper end of its {opts['band']:.0%} chi-square band")
+        return Health(not reasons, tuple(reasons), shares, recov, win, self.alignment, rule)
 
     def summary(self) -> str:
         """Counts of updates, average NIS per kind, rejections, NEES and final sigmas."""
@@ -336,6 +557,7 @@ class NavResult(TrajectoryArrays):
         if len(self.recoveries) > 20:
             lines.append(f"... and {len(self.recoveries) - 20} more recoveries")
         lines += [r.describe() for r in self.random_walks]
+        lines.append(self.health().describe())
         if self.nees is not None:
             lo, hi = chi2.ppf([0.025, 0.975], 9)
             lines.append(f"mean NEES (9 nav states) {self.mean_nees:.3g}; single-epoch 95% band "
@@ -738,7 +960,8 @@ class LooselyCoupledFilter:
             gnss: GnssData | None = None, init: InitialState | None = None,
             outages: Sequence[tuple[float, float]] = (), truth: Trajectory | None = None,
             heading: tuple[ArrayLike, ArrayLike, float] | None = None,
-            zero_velocity: tuple[ArrayLike, float] | None = None) -> NavResult:
+            zero_velocity: tuple[ArrayLike, float] | None = None,
+            init_sd: Sequence[float | None] | None = None) -> NavResult:
         """Run the filter over an IMU record.
 
         Parameters
@@ -758,14 +981,22 @@ class LooselyCoupledFilter:
             Magnetic heading measurements (declination removed).
         zero_velocity : (time, sd), optional
             Time stamps of zero-velocity updates and their 1-sigma, m/s.
+        init_sd : (position, velocity, level, heading), optional
+            Initial 1-sigma replacing those of `init` or of the alignment: position N/E/D (m),
+            velocity (m/s), roll and pitch (deg), heading (deg); None entries keep theirs.
         """
         t_all, g_all, a_all = check_imu(imu_time, gyro, accel)
         if init is None:
             if gnss is None:
                 raise InputError("without init the filter aligns from GNSS: give gnss")
             init = align_from_gnss(t_all, g_all, a_all, gnss, kind=kind)
+            source = "gnss"
+        else:
+            source = "given"
         if not isinstance(init, InitialState):
             raise InputError(f"init must be an InitialState, got {type(init).__name__}")
+        if init_sd is not None:
+            init = _with_sd(init, init_sd)
         t_start = t_all[0] if init.time is None else float(init.time)
         i0 = int(np.searchsorted(t_all, t_start - 1e-9))
         if i0 >= t_all.size - 1:
@@ -780,7 +1011,32 @@ class LooselyCoupledFilter:
         sens = _Sensors(self.models, dt_imu, self.gyro_bias_sd, self.accel_bias_sd,
                         self.lever_arm_sd, self.record)
         events = self._events(gnss, heading, zero_velocity, outages, float(t_all[0]), t[0])
-        return _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth).execute()
+        sd = np.sqrt(np.diag(init.covariance()))
+        alignment = Alignment(float(t[0]), float(t_all[0]), float(init.lat), float(init.lon),
+                              float(init.height), float(np.linalg.norm(init.vel_ned)), source,
+                              tuple(np.r_[sd[:6], np.degrees(sd[6:])].tolist()))
+        run = _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth)
+        return attrs.evolve(run.execute(), alignment=alignment)
+
+
+def _with_sd(init: InitialState, init_sd: Sequence[float | None]) -> InitialState:
+    """`init` with the 1-sigma of ``init_sd = (position m, velocity m/s, level deg, heading
+    deg)`` where they are not None."""
+    if len(init_sd) != 4:
+        raise InputError(f"init_sd takes four values (position, velocity, level, heading), got "
+                         f"{init_sd!r}")
+    for v in init_sd:
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"initial sigmas must be positive and finite, got {init_sd!r}")
+    pos, vel, lev, hdg = init_sd
+    att = np.broadcast_to(np.asarray(init.sd_attitude, dtype=float), (3,)).copy()
+    if lev is not None:
+        att[:2] = lev
+    if hdg is not None:
+        att[2] = hdg
+    return attrs.evolve(init, sd_position=init.sd_position if pos is None else float(pos),
+                        sd_velocity=init.sd_velocity if vel is None else float(vel),
+                        sd_attitude=tuple(att.tolist()))
 
 
 class _Run:

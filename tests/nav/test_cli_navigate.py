@@ -11,9 +11,14 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
-from stochmod.cli.navigate import TRAJECTORY_COLUMNS
-from stochmod.nav import Segment, add_sensor_errors, gnss_measurements, ideal_imu
-from stochmod.nav import trajectory_from_profile
+from stochmod.cli.navigate import TRAJECTORY_COLUMNS, UNTRUSTED_STATUS
+from stochmod.nav import (
+    Segment,
+    add_sensor_errors,
+    gnss_measurements,
+    ideal_imu,
+    trajectory_from_profile,
+)
 from stochmod.nav.emulate import AXES
 from stochmod.nav.logs import calibration_record, read_calibration
 from stochmod.nav.study import horizontal_error
@@ -177,6 +182,11 @@ def test_navigate_aligns_itself_and_plots(recording, tmp_path) -> None:
         (["--lever-arm-sd", "1", "2"], "one or three values"),
         (["--lever-arm-sd", "-1"], "--lever-arm-sd must be"),
         (["--calibration", "absent.json"], "no such calibration file"),
+        (["--gate", "1.5"], "--gate must be a probability"),
+        (["--gate", "never"], "--gate must be a number or off"),
+        (["--recover-after", "0"], "--recover-after must be"),
+        (["--init-level-sd", "0"], "--init-level-sd must be a positive"),
+        (["--vel-sd", "-1"], "--vel-sd must be a positive"),
     ],
 )
 def test_navigate_bad_arguments(recording, tmp_path, capsys, extra, message) -> None:
@@ -304,3 +314,77 @@ def test_outages_cli_passes_the_calibration_record(recording, tmp_path, monkeypa
                  "--quick"]) == 0
     assert seen["record"] is None and seen["truth_record"] is None
     capsys.readouterr()
+
+
+def _biased_imu(folder, tmp_path, bias_deg_h=5000.0):
+    """The recording's IMU with turn-on gyro biases of `bias_deg_h` on every axis."""
+    table = np.loadtxt(folder / "imu.csv", delimiter=",", skiprows=1)
+    table[:, 1:4] += np.radians(bias_deg_h / 3600.0) * np.array([1.0, -1.0, 1.0])
+    path = tmp_path / "imu_biased.csv"
+    np.savetxt(path, table, delimiter=",", fmt="%.17g", comments="",
+               header="time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z")
+    return path
+
+
+def test_navigate_recovers_from_rejections_and_reports_its_health(recording, tmp_path,
+                                                                   capsys) -> None:
+    """5000 deg/h gyro biases against the default 300 deg/h prior: with the recovery the run
+    is accurate and trusted; without it the gate locks out, the command warns on stderr and
+    exits with status 3, or 0 with --accept-untrusted."""
+    folder, truth = recording
+    imu = _biased_imu(folder, tmp_path)
+    common = [str(imu), str(folder / "gnss.csv"), "--init", _init_text(truth), "--no-plots"]
+    out = tmp_path / "recovered"
+    assert main(["navigate", *common, "--out", str(out)]) == 0
+    assert "UNTRUSTED" not in capsys.readouterr().err
+    report = (out / "report.txt").read_text()
+    assert "recovery t = " in report and "Filter health" in report
+    assert "alignment: t = " in report and "in motion (speed 5.00 m/s), given initial" in report
+    health = json.loads((out / "health.json").read_text())
+    assert health["trusted"] and sum(health["recoveries"].values()) >= 1
+    assert health["alignment"]["source"] == "given" and not health["alignment"]["static"]
+    table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    late = table[:, 0] > truth.time[0] + 30
+    assert np.median(horizontal_error(truth, table[late, 0], table[late, 1],
+                                      table[late, 2])) < 2.0
+    locked = tmp_path / "locked"
+    assert main(["navigate", *common, "--out", str(locked), "--recover-after", "off"]) == \
+        UNTRUSTED_STATUS
+    err = capsys.readouterr().err
+    assert "WARNING: UNTRUSTED SOLUTION" in err and "of the updates rejected" in err
+    health = json.loads((locked / "health.json").read_text())
+    assert not health["trusted"] and health["rejected_share"]["gnss_position"] > 0.2
+    assert "verdict: UNTRUSTED SOLUTION" in (locked / "report.txt").read_text()
+    assert (locked / "trajectory.csv").exists()  # the outputs are written all the same
+    assert main(["navigate", *common, "--out", str(locked), "--recover-after", "off",
+                 "--accept-untrusted"]) == 0
+    assert "exit status 0" in capsys.readouterr().err
+    # no gate: nothing rejected, nothing to recover
+    assert main(["navigate", *common, "--out", str(tmp_path / "off"), "--gate", "off"]) == 0
+    health = json.loads((tmp_path / "off" / "health.json").read_text())
+    assert health["rejected_share"] == {"gnss_position": 0.0, "gnss_velocity": 0.0}
+    assert "gate off" in (tmp_path / "off" / "report.txt").read_text()
+
+
+def test_navigate_initial_and_velocity_sigmas_reach_the_filter(recording, tmp_path) -> None:
+    folder, truth = recording
+    out = tmp_path / "out"
+    # a GNSS file without velocity sigmas: --vel-sd is the one the filter uses
+    assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(out), "--init", _init_text(truth), "--init-position-sd", "7",
+                 "--init-velocity-sd", "0.7", "--init-level-sd", "0.4", "--init-heading-sd",
+                 "9", "--vel-sd", "0.1", "--gate", "0.999", "--no-plots"]) == 0
+    report = (out / "report.txt").read_text()
+    assert "initial 1-sigma 7 m, 0.7 m/s, level 0.4/0.4 deg, heading 9 deg" in report
+    assert "GNSS velocity sd 0.1 m/s" in report and "gate 0.999, recovery after 5" in report
+    table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[0, 10:13], [7.0, 7.0, 7.0])
+    np.testing.assert_allclose(table[0, 13:16], [0.7, 0.7, 0.7])
+    np.testing.assert_allclose(table[0, 16:19], [0.4, 0.4, 9.0])
+    # self-aligned: the options replace the alignment's sigmas too
+    assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(tmp_path / "aligned"), "--init-heading-sd", "12", "--no-plots"]) == 0
+    report = (tmp_path / "aligned" / "report.txt").read_text()
+    assert "in-motion alignment from GNSS" in report and "heading 12 deg" in report
+    assert "level 2/2 deg" in report  # the alignment's own
+

@@ -95,6 +95,14 @@ def test_recovery_after_rejections_reaches_the_unbiased_accuracy(drive):
     # the turn-on bias states end near the true 5000 deg/h
     np.testing.assert_allclose(res.sensor_errors[-1, :3], bias, atol=0.01 * BIG_BIAS)
     assert "recoveries" in res.summary() and "recovery t = " in res.summary()
+    # the health rule: few rejections, windowed NIS in band once converged
+    health = res.health()
+    assert health.trusted, health.reasons
+    assert res.alignment.static and res.alignment.source == "given"
+    assert health.recoveries == {"gnss_position": sum(r.kind == "gnss_position"
+                                                      for r in res.recoveries),
+                                 "gnss_velocity": sum(r.kind == "gnss_velocity"
+                                                      for r in res.recoveries)}
 
 
 def test_without_recovery_the_gate_locks_out(drive):
@@ -103,6 +111,11 @@ def test_without_recovery_the_gate_locks_out(drive):
     share = res.rejected["gnss_position"] / res.nis["gnss_position"].shape[0]
     assert share > 0.9 and res.recoveries == ()
     assert err.max() > 1e4  # tens of km: the failure the recovery replaces
+    health = res.health()
+    assert not health.trusted
+    assert any("of the updates rejected" in r for r in health.reasons)
+    assert any("far above" in r for r in health.reasons)
+    assert "UNTRUSTED" in res.summary()
 
 
 def test_ungated_filter_needs_no_recovery(drive):
