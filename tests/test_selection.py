@@ -153,9 +153,9 @@ def test_default_executor_keeps_a_few_fits_in_this_process(threads, monkeypatch)
     started: list[int] = []
 
     class Refused(ProcessPoolExecutor):
-        def __init__(self, max_workers: int) -> None:
+        def __init__(self, max_workers: int, **options) -> None:
             started.append(max_workers)
-            super().__init__(max_workers)
+            super().__init__(max_workers, **options)
 
     monkeypatch.setattr(selection_module.concurrent.futures, "ProcessPoolExecutor", Refused)
     assert _ranking(select(x, FREQ, **kwargs)) == _ranking(on_pool) and started == []

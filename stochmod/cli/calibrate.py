@@ -21,6 +21,7 @@ from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import add_input_arguments, declared_recording, load_segments, print_json
 from stochmod.cli.select import add_selection_arguments, selection_options
 from stochmod.core.errors import InputError
+from stochmod.core.parallel import process_pool, single_threaded_blas
 from stochmod.core.tables import format_table
 from stochmod.core.units import SENSORS
 from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
@@ -197,7 +198,7 @@ def _pool(executor: Any, jobs: int) -> Iterator[Any]:
     elif jobs == 1:
         yield SerialExecutor()
     else:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs) as pool:
+        with process_pool(jobs) as pool:
             yield pool
 
 
@@ -379,7 +380,7 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
-    with _pool(executor, jobs) as pool:
+    with single_threaded_blas(), _pool(executor, jobs) as pool:
         results = select_columns(unit.segments, unit.freq, executor=pool,
                                  **selection_options(args))
         return _outputs(args, unit, results, pool, quiet)
@@ -412,8 +413,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, selections, rec.data, run_.datasheets, exported,
-                                       list(run_.triads), title, out)
+    figures += extras.write_report_for(args, run_, exported, title, out)
     if quiet:
         return report
     if args.json:

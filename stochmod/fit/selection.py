@@ -34,22 +34,23 @@ from scipy import optimize
 
 from stochmod.core.checks import as_signals, check_freq, check_positive_int
 from stochmod.core.errors import DomainError, EstimationError, InputError, SpecError
+from stochmod.core.model import Model, as_model
+from stochmod.core.parallel import process_pool, single_threaded_blas
+from stochmod.core.process import Process
+from stochmod.core.tables import format_table
+from stochmod.empirical.robust_wv import check_efficiency
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 from stochmod.fit import criteria as _criteria
 from stochmod.fit.engine import Problem, SearchResult, refine, search
+from stochmod.fit.lattice import default_families, default_max_counts
 from stochmod.fit.replicates import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.weighting import check_weighting_matrix, data_covariance
 from stochmod.fit.weighting_plugins import WeightingInput, get_weighting, weighting_names
 from stochmod.io.recording import Recording
-from stochmod.fit.lattice import default_families, default_max_counts
-from stochmod.core.model import Model, as_model
 from stochmod.plugin.spec import model_from_spec
-from stochmod.core.process import Process
-from stochmod.core.tables import format_table
-from stochmod.empirical.robust_wv import check_efficiency
-from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 
-__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",
+__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",  # noqa: RUF022
            "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (read through __getattr__)
 
 
@@ -558,7 +559,7 @@ def _executor(executor: Any, n_fits: int) -> Iterator[tuple[Any, bool]]:
             with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
                 yield pool, True
         else:
-            with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
+            with process_pool(2) as pool:
                 yield pool, True
     else:
         if not callable(getattr(executor, "submit", None)):
@@ -715,7 +716,7 @@ def select(
         if not node["model"].free_mask().any():
             raise SpecError(f"candidate {name} has no free parameter to estimate")
 
-    with _executor(executor, n_fits) as (pool, local), \
+    with single_threaded_blas(), _executor(executor, n_fits) as (pool, local), \
             _progress(n_fits, progress, "select") as bar, \
             concurrent.futures.ThreadPoolExecutor(1) as here:
         if prepared is not None:
@@ -756,8 +757,9 @@ def select(
 
     if pooled is not None:  # every fit of the replicates carries their pooling and its test
         fits = [{n: attrs.evolve(f, pooled=pooled) for n, f in fits[0].items()}]
-    results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
-               for k in range(len(cols))]
+    with single_threaded_blas():  # J x J algebra: one thread is fastest
+        results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
+                   for k in range(len(cols))]
     return results[0] if single else results
 
 

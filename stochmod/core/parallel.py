@@ -1,0 +1,37 @@
+"""Worker processes and BLAS threads that do not compete for the same cores.
+
+stochmod's linear algebra is on matrices of the size of the number of wavelet levels (about
+20): a multi-threaded BLAS never speeds it up, and while worker processes use every core its
+threads spin against them (OpenBLAS busy-waits), which can make this process's share of a
+selection several times slower. :func:`single_threaded_blas` limits BLAS to one thread in
+this process while work runs beside it, and :func:`process_pool` starts workers that do the
+same (threadpoolctl, which finds the BLAS library numpy and scipy loaded).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+from collections.abc import Iterator
+
+from threadpoolctl import threadpool_limits
+
+__all__ = ["process_pool", "single_threaded_blas"]
+
+
+@contextlib.contextmanager
+def single_threaded_blas() -> Iterator[None]:
+    """Limit the BLAS libraries of this process to one thread inside the block."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
+def _limit_worker_blas() -> None:
+    """Worker initializer: one BLAS thread for the life of the worker."""
+    threadpool_limits(limits=1, user_api="blas")
+
+
+def process_pool(max_workers: int) -> concurrent.futures.ProcessPoolExecutor:
+    """A pool of `max_workers` processes, each with one BLAS thread."""
+    return concurrent.futures.ProcessPoolExecutor(max_workers=max_workers,
+                                                  initializer=_limit_worker_blas)
