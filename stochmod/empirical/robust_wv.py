@@ -5,7 +5,7 @@ so a handful of spikes inflates it at every level. Following Guerrier, Molinari,
 Victoria-Feser and Xu (2022, JASA 117, "Robust two-step wavelet-based inference for time
 series models"; the ``robust = TRUE`` option of the R gmwm package), the level-j wavelet
 variance ``nu_j`` is instead the M-estimate of scale of the interior coefficients
-``W_{j,t}``: the largest root of
+``W_{j,t}`` (of the signal screened for isolated outliers, below): the largest root of
 
     (1 / M_j) sum_t chi(W_{j,t}^2 / nu_j) = delta,    delta = E[chi(Z^2)],  Z ~ N(0, 1),
 
@@ -44,6 +44,24 @@ coefficients are strongly correlated. Two estimates of ``kappa_j`` are offered:
   squared sample autocorrelations (the periodogram's ``E[I^2] = 2 S^2``), ``R_k, k >= 2``
   the plain sums.
 
+Screening for isolated outliers. A spike of size A at one sample touches 2^j coefficients
+of level j, each by about ``A / 2^(j/2)`` level-j standard deviations (white noise): the
+M-scale rejects it at the first levels, but from the level where that falls below c it
+passes, in a share ``2^j eps`` of the coefficients (eps the spikes' share of the samples)
+that doubles with each level. The bias is then level-dependent (low where the spikes are
+rejected, high just below, where they are dense and small): a model absorbs it as a
+spurious colour (a GM's beta 40 % high for 0.05 % spikes of 25 sd), where the classical
+estimator's white bias (``eps A^2 / 2^j``) would only inflate a WN. So the spikes are
+removed before the decomposition, where they are largest and sparse: on the level-1 Haar
+coefficients ``x_{t+1} - x_t`` (whatever the wavelet), a coefficient is rejected beyond
+``c`` robust sd (c of the biweight at the requested efficiency, also for Huber), and two
+consecutive rejected ones of opposite signs at most :data:`MAX_PATCH` samples apart bound
+a patch (a jump away and back), replaced by the straight line between its neighbours
+(:func:`isolated_patches`, :func:`replace_patches`). Every level is then the M-estimate of
+the screened signal. Longer bursts, steps and lone rejections are left to the per-level
+M-scale. For Gaussian data a pair of opposite rejections is rare (for white noise 9e-8 per
+sample at efficiency 0.6, 1.4e-5 at 0.3), and a replaced sample changes a level by O(1/N).
+
 Computation. Each level costs one pass over its coefficients in cache-sized chunks: a robust
 start ``nu_0`` (median of ``W^2`` on a subsample / 0.4549), the power sums of the
 coefficients with ``W^2 <= c^2 nu_0 / 2`` (certainly inside the biweight's support for any
@@ -51,7 +69,8 @@ root in ``[nu_0 / 2, 2 nu_0]``: ``chi`` is a polynomial there) and the indices o
 others; the root is then found exactly (Brent) on this summary, and the bracket widened if the
 root is outside it. For Haar with chi-square intervals the pass is the pyramid's own level
 step (:func:`_haar_scales`: no coefficient array), one compiled loop
-(:mod:`stochmod.empirical.haar_jit`). The coefficients are scaled by a power of two so that the
+(:mod:`stochmod.empirical.haar_jit`); its level-1 pass also screens, and the pyramid starts
+again from the screened signal only when some samples were replaced. The coefficients are scaled by a power of two so that the
 powers up to ``u^5`` stay in float32's range whatever the signal's unit.
 """
 
