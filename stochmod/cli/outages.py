@@ -1,18 +1,27 @@
 """``stochmod outages``: a GNSS-outage study on an emulated drive with the models of a
-calibration file (the step after ``stochmod calibrate``)."""
+calibration file (the step after ``stochmod calibrate``), with errors drawn from that
+calibration or taken from a real static recording (``--errors``) and one filter per
+calibration."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
+from pathlib import Path
 
-from stochmod.fit.classical.build import family_for
 from stochmod.core.errors import InputError
 from stochmod.core.model import Model
+from stochmod.fit.classical.build import family_for
 from stochmod.nav.emulate import Segment
 from stochmod.nav.logs import calibration_record, read_calibration
-from stochmod.nav.study import DEFAULT_OUTAGES, DEFAULT_PROFILE, outage_study
+from stochmod.nav.study import (
+    DEFAULT_OUTAGES,
+    DEFAULT_PROFILE,
+    MEAN_REMOVAL,
+    outage_study,
+    static_errors,
+)
 
 __all__ = ["register", "run", "white_part"]
 
@@ -37,11 +46,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "the model has none). Prints per outage the mean, median and 95th percentile of the "
             "maximum horizontal error, and each filter's average NEES. A component of the "
             "calibration correlated beyond its record is, for the filters and for the emulated "
-            "errors alike, the random walk it is over the record."
+            "errors alike, the random walk it is over the record. With --errors STATIC_FILE the "
+            "errors are instead the real error signal of a static recording (one "
+            "non-overlapping window per run, outside the --exclude spans the calibrations were "
+            "made from; units declared as calibrate declares them) and each --calibration is "
+            "one filter; the table adds, at the end of each outage, the mean NEES with its 95 % "
+            "chi-square band and the RMS ratio of the horizontal error to the filter's own "
+            "horizontal 1-sigma."
         ),
     )
-    p.add_argument("--calibration", required=True, metavar="FILE",
-                   help="calibration.json written by `stochmod calibrate`")
+    p.add_argument("--calibration", required=True, action="append", metavar="FILE",
+                   help="calibration.json written by `stochmod calibrate`; with --errors, "
+                        "repeat it for one filter per calibration")
+    real = p.add_argument_group(
+        "errors from a real static recording (docs/outages_real_errors.md)")
+    real.add_argument("--errors", default=None, metavar="STATIC_FILE",
+                      help="static recording whose error signal (less its mean) is added to the "
+                           "emulated IMU, one non-overlapping window per run; the filters are "
+                           "the calibrations' models")
+    real.add_argument("--names", nargs="+", default=None, metavar="NAME",
+                      help="names of the filters, one per --calibration (default: each "
+                           "file's folder name)")
+    real.add_argument("--exclude", action="append", default=None, metavar="START:END",
+                      help="span of the static file, s from its first sample, that no window "
+                           "may touch: the part the calibrations were made from (repeatable)")
+    real.add_argument("--mean", choices=MEAN_REMOVAL, default="record",
+                      help="remove the mean of the whole usable record (default) or of each "
+                           "window")
+    real.add_argument("--column", action="append", default=None, metavar="C",
+                      help="the static file's six columns (gyro x y z, accel x y z), "
+                           "repeatable (default: by name or by sensor kind)")
+    real.add_argument("--unit", action="append", default=None, metavar="[COLUMN=]UNIT",
+                      help="unit of a column of the static file, as calibrate takes it")
+    real.add_argument("--gyro-unit", default=None, metavar="UNIT",
+                      help="unit of the static file's gyro columns (deg/s, rad/s ...)")
+    real.add_argument("--accel-unit", default=None, metavar="UNIT",
+                      help="unit of the static file's accelerometer columns (g, m/s^2 ...)")
+    real.add_argument("--assume-si", action="store_true",
+                      help="take rad/s and m/s^2 for static columns of unknown unit")
     p.add_argument("--runs", type=int, default=10, metavar="R",
                    help="number of emulated drives (default 10)")
     p.add_argument("--seed", type=int, default=0, help="seed of the emulations (default 0)")
@@ -76,9 +118,42 @@ def white_part(model: Model) -> Model:
     return Model((white.from_ieee952({"N": math.sqrt(var / freq)}, freq),)).bind(freq)
 
 
+def _span(text: str) -> tuple[float, float]:
+    start, sep, end = text.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        return float(start), float(end)
+    except ValueError:
+        raise InputError(f"--exclude takes START:END in s, got {text!r}") from None
+
+
+def _names(args: argparse.Namespace) -> list[str]:
+    files = args.calibration
+    if args.names is None:
+        names = [Path(f).resolve().parent.name or Path(f).stem for f in files]
+        if len(set(names)) < len(names):
+            names = [str(f) for f in files]
+    else:
+        names = list(args.names)
+        if len(names) != len(files):
+            raise InputError(f"--names gives {len(names)} name(s) for {len(files)} "
+                             "--calibration file(s)")
+    if len(set(names)) < len(names):
+        raise InputError(f"the filters' names must differ, got {names}")
+    return names
+
+
+def _rate(models: dict[str, Model], path: str) -> float:
+    freqs = {m.freq for m in models.values()}
+    if len(freqs) != 1:
+        raise InputError(f"{path}: the calibration's models have different rates "
+                         f"{sorted(freqs)} Hz; the emulated IMU needs one")
+    return freqs.pop()
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the study and print its table."""
-    models = read_calibration(args.calibration)
     if args.runs < 1:
         raise InputError(f"--runs must be at least 1, got {args.runs}")
     if args.workers < 1:
@@ -89,24 +164,48 @@ def run(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if not (math.isfinite(value) and value >= 0) or (name == "cep" and value == 0):
             raise InputError(f"--{name.replace('_', '-')} must be a positive number, got {value!r}")
-    freqs = {m.freq for m in models.values()}
-    if len(freqs) != 1:
-        raise InputError(f"the calibration's models have different rates {sorted(freqs)} Hz; "
-                         "the emulated IMU needs one")
-    rate = freqs.pop()
-    filters = {"calibrated": models, "white noise": {a: white_part(m) for a, m in models.items()}}
+    if args.errors is None:
+        given = [o for o in ("names", "exclude", "column", "unit", "gyro_unit", "accel_unit")
+                 if getattr(args, o)] + (["assume_si"] if args.assume_si else [])
+        if given or len(args.calibration) > 1:
+            what = [f"--{o.replace('_', '-')}" for o in given]
+            if len(args.calibration) > 1:
+                what.append("several --calibration")
+            raise InputError(f"{', '.join(what)} need(s) --errors STATIC_FILE; without it the "
+                             "one calibration is the truth")
 
     def progress(r: int, name: str) -> None:
         print(f"run {r + 1}/{args.runs}: {name}", file=sys.stderr, flush=True)
 
-    # the calibration is both the truth and a filter: a component beyond its record is the
-    # random walk it is over the record for both (None: an older file without the length)
-    record = calibration_record(args.calibration)
-    study = outage_study(filters, models, runs=args.runs, seed=args.seed,
-                         profile=QUICK_PROFILE if args.quick else DEFAULT_PROFILE,
-                         outages=QUICK_OUTAGES if args.quick else DEFAULT_OUTAGES, rate=rate,
-                         gyro_bias_sd=args.gyro_bias_sd, accel_bias_sd=args.accel_bias_sd,
-                         cep=args.cep, dt_filter=args.dt_filter, progress=progress,
-                         workers=args.workers, record=record, truth_record=record)
+    common = {"runs": args.runs, "seed": args.seed,
+              "profile": QUICK_PROFILE if args.quick else DEFAULT_PROFILE,
+              "outages": QUICK_OUTAGES if args.quick else DEFAULT_OUTAGES,
+              "gyro_bias_sd": args.gyro_bias_sd, "accel_bias_sd": args.accel_bias_sd,
+              "cep": args.cep, "dt_filter": args.dt_filter, "progress": progress,
+              "workers": args.workers}
+    if args.errors is None:
+        path = args.calibration[0]
+        models = read_calibration(path)
+        filters = {"calibrated": models,
+                   "white noise": {a: white_part(m) for a, m in models.items()}}
+        # the calibration is both the truth and a filter: a component beyond its record is the
+        # random walk it is over the record for both (None: an older file without the length)
+        record = calibration_record(path)
+        study = outage_study(filters, models, rate=_rate(models, path), record=record,
+                             truth_record=record, **common)
+    else:
+        names = _names(args)
+        filters = {n: read_calibration(f) for n, f in zip(names, args.calibration)}
+        rates = {n: _rate(m, f) for (n, m), f in zip(filters.items(), args.calibration)}
+        if len(set(rates.values())) != 1:
+            raise InputError(f"the calibrations are at different rates {rates} Hz; the "
+                             "emulated IMU needs one")
+        rate = next(iter(rates.values()))
+        errors = static_errors(args.errors, columns=args.column, freq=rate, unit=args.unit,
+                               gyro_unit=args.gyro_unit, accel_unit=args.accel_unit,
+                               assume_si=args.assume_si,
+                               exclude=[_span(t) for t in args.exclude or ()], mean=args.mean)
+        records = {n: calibration_record(f) for n, f in zip(names, args.calibration)}
+        study = outage_study(filters, errors=errors, rate=rate, record=records, **common)
     print(study.summary())
     return 0
