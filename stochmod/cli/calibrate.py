@@ -403,7 +403,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     path = cal.write(out / "calibration.json")
     report = cal.to_dict()
     sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
-    exported = extras.write_exports_for(args, list(run_.selections), sensors, out)
+    exported = extras.write_exports_for(args, cal, sensors, out)
     rec = run_.record
     units = XSENS_UNITS if args.file is None else rec.unit_map()
     selections = list(run_.selections)

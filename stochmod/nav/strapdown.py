@@ -27,7 +27,7 @@ costs less than the overhead of one numpy call.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import attrs
 import numpy as np
@@ -37,8 +37,14 @@ from stochmod.core.errors import InputError
 from stochmod.nav import earth, frames
 from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 
-__all__ = ["NavState", "Mechanisation", "StrapdownResult", "strapdown", "imu_increments",
-           "check_imu"]
+__all__ = [
+    "Mechanisation",
+    "NavState",
+    "StrapdownResult",
+    "check_imu",
+    "imu_increments",
+    "strapdown",
+]
 
 _OM = earth.OMEGA_IE
 _A, _E2 = earth.A, earth.E2
@@ -80,7 +86,7 @@ class NavState:
         return frames.quat_to_rph(self.q_nb)
 
     @property
-    def C_nb(self) -> np.ndarray:  # noqa: N802
+    def C_nb(self) -> np.ndarray:
         """Body-to-NED rotation matrix."""
         return frames.quat_to_dcm(self.q_nb)
 
@@ -92,6 +98,12 @@ class Mechanisation:
     ----------
     state : NavState
         The state at the first epoch.
+    gravity : callable, optional
+        ``gravity(lat, h) -> g``: normal gravity magnitude (m/s^2) at geodetic latitude `lat`
+        (rad) and ellipsoidal height `h` (m), down in NED; default eq. 16 with Table II. For
+        comparisons with another tool's simulator, whose ideal IMU holds its own gravity model
+        (a difference of 1e-5 m/s^2 drives the vertical channel, and through the Coriolis term
+        the horizontal position, by centimetres in ten minutes).
 
     Notes
     -----
@@ -101,9 +113,11 @@ class Mechanisation:
     corrects them in place between steps (:meth:`set_state`).
     """
 
-    __slots__ = ("q", "v", "lat", "lon", "h", "_prev", "_dtp", "dv_n", "w_in")
+    __slots__ = ("_dtp", "_gravity", "_prev", "dv_n", "h", "lat", "lon", "q", "v", "w_in")
 
-    def __init__(self, state: NavState) -> None:
+    def __init__(self, state: NavState, gravity: Callable[[float, float], float] | None = None
+                 ) -> None:
+        self._gravity = gravity
         self.set_state(state)
 
     def set_state(self, state: NavState) -> None:
@@ -150,7 +164,10 @@ class Mechanisation:
         sw = math.sqrt(w)
         re = _A / sw
         rn = re * (1.0 - _E2) / w
-        g = _G0 * (1.0 + _G1 * s2 - _G2 * 4.0 * s2 * cl * cl) / (1.0 + h * sw / (re * _SQ1E2)) ** 2
+        if self._gravity is None:
+            g = _G0 * (1.0 + _G1 * s2 - _G2 * 4.0 * s2 * cl * cl) / (1.0 + h * sw / (re * _SQ1E2)) ** 2
+        else:
+            g = float(self._gravity(lat, h))
         wen_n, wen_e = ve / (re + h), -vn / (rn + h)
         wen_d = -wen_n * sl / cl
         wx, wy, wz = _OM * cl + wen_n, wen_e, -_OM * sl + wen_d
@@ -283,8 +300,8 @@ def check_imu(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike
 
 
 def strapdown(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat: float, lon: float,
-              height: float, vel_ned: ArrayLike, rph: ArrayLike, kind: str = "rate"
-              ) -> StrapdownResult:
+              height: float, vel_ned: ArrayLike, rph: ArrayLike, kind: str = "rate",
+              gravity: Callable[[float, float], float] | None = None) -> StrapdownResult:
     """Free-inertial navigation from the state at ``time[0]``.
 
     Parameters
@@ -305,6 +322,9 @@ def strapdown(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat: float,
     rph : array_like (3,)
         Initial roll, pitch, heading, deg (``C_nb = Rz(heading) Ry(pitch) Rx(roll)``).
     kind : {"rate", "increment"}
+    gravity : callable, optional
+        ``gravity(lat_rad, height_m) -> m/s^2``, the normal gravity (default eq. 16 with Table
+        II; :class:`Mechanisation`).
 
     Returns
     -------
@@ -312,7 +332,7 @@ def strapdown(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat: float,
     """
     t, g, a = check_imu(time, gyro, accel)
     mech = Mechanisation(NavState.from_degrees(lat=lat, lon=lon, height=height, vel_ned=vel_ned,
-                                               rph=rph))
+                                               rph=rph), gravity)
     h, dth, dv, con, scu = imu_increments(t, g, a, kind)
     rows = [(mech.lat, mech.lon, mech.h, *mech.v, *mech.q)]
     append, step = rows.append, mech.step
