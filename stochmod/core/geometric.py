@@ -447,7 +447,7 @@ def _positive_rows_jit(u: np.ndarray, m: np.ndarray, w: np.ndarray,
 
 
 #: The compiled recursion of :func:`haar_wv_positive_rows` for a family's compiled WV kernel
-#: (:attr:`stochmod.core.process.Process.haar_wv_kernel`): ``positive_rows_kernel(u, m, w, dw)``
+#: (:attr:`stochmod.core.vectorised_wv.VectorisedWV.haar_wv_kernel`): ``positive_rows_kernel(u, m, w, dw)``
 #: fills ``W`` and ``dW/du`` (K, J) with that function's digits where ``0 < u <=``
 #: :data:`POSITIVE_ROWS_KERNEL_MAX_U` and ``m = 1, 2, 4, ...``; None when ``STOCHMOD_DISABLE_JIT``
 #: is set.
