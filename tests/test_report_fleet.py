@@ -58,11 +58,12 @@ def test_report_is_one_self_contained_file(tmp_path, capsys):
     capsys.readouterr()
     parser = _Parsed()
     parser.feed((out / "report.html").read_text())
-    assert len(parser.images) == 2  # one figure per axis, embedded
+    assert len(parser.images) == 3  # the Allan deviations of both axes, one figure per axis
     for src in parser.images:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
     assert parser.links == []  # nothing outside the file
+    assert parser.tables[0] == "summary"  # the summary across axes opens the report
     assert parser.tables.count("selection") == 2 and parser.tables.count("datasheet") == 2
     assert any("gyroscope_noise_density" in p for p in parser.pre)  # the export, verbatim
 

@@ -4,24 +4,34 @@
 the empirical Haar wavelet variance with its confidence interval, the fitted model's
 theoretical WV, and the WVs of synthetic series simulated from the fit. Figures are built
 with matplotlib's object API (no pyplot state, no display needed).
+
+:func:`plot_allan` draws an Allan deviation in datasheet units (deg/h for a gyroscope, ug or
+mg for an accelerometer, :func:`allan_unit`): the data with their interval, a model's curve,
+the white-plus-random-walk bound ``N^2/tau + K^2 tau/3`` of an export; :func:`allan_figure`
+puts one such panel per axis on a grid.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import attrs
 import numpy as np
 
 from stochmod.core.checks import check_positive_int
 from stochmod.core.errors import InputError
 from stochmod.core.process import as_generator
+from stochmod.core.units import convert, parse_unit
 from stochmod.empirical.wavelet_variance import wvar
 
 if TYPE_CHECKING:
     from stochmod.fit.results import GMWMResult
 
-__all__ = ["plot_fit", "save_fit_figure", "simulated_wv"]
+__all__ = ["AllanCurves", "allan_figure", "allan_unit", "plot_allan", "plot_fit",
+           "save_fit_figure", "simulated_wv"]
 
 FIGSIZE = (6.4, 4.8)  # inches
 #: Fixed margins of a new figure, as fractions of :data:`FIGSIZE`, wide enough for the
@@ -134,3 +144,177 @@ def save_fit_figure(fit: GMWMResult, path: str | Path, **kwargs: Any) -> Path:
     fig = plot_fit(fit, **kwargs)
     fig.savefig(path, dpi=110)
     return path
+
+
+#: Datasheet unit of an Allan deviation by the physical kind of the signal; an accelerometer's
+#: switches from ug to mg where its curve lies above :data:`_MG_FROM` ug.
+ALLAN_UNITS = {"rate": "deg/h", "acceleration": "ug"}
+_MG_FROM = 1000.0
+
+
+def allan_unit(unit: str, adev: Any = ()) -> str:
+    """The unit an Allan deviation of a signal in `unit` is drawn in: deg/h for a rate,
+    ug for an acceleration (mg when the median of `adev`, in `unit`, reaches 1000 ug), `unit`
+    itself for anything else (an unknown unit too)."""
+    try:
+        kind = parse_unit(unit).kind
+    except InputError:
+        return unit
+    shown = ALLAN_UNITS.get(kind)
+    if shown is None:
+        return unit
+    values = np.asarray(adev, dtype=float)
+    values = values[np.isfinite(values) & (values > 0)]
+    if kind == "acceleration" and values.size and (
+            float(convert(np.median(values), unit, "ug")) >= _MG_FROM):
+        return "mg"
+    return shown
+
+
+@attrs.frozen(eq=False)
+class AllanCurves:
+    """What one Allan-deviation panel shows, every value in the signal unit `unit` (SI).
+
+    Attributes
+    ----------
+    column : str
+        Axis name (the panel's title, with `model_name`).
+    unit : str
+        Signal unit (``"rad/s"``, ``"m/s^2"``).
+    tau, adev, low, high : ndarray or None
+        The data's Allan deviation and its interval at averaging times `tau` (s).
+    model_tau, model_adev : ndarray or None
+        The model's Allan deviation.
+    model_name : str
+    noise_density, random_walk : float or None
+        N (u/sqrt(Hz)) and K (u/sqrt(s)) of an export: drawn as the deviation of
+        ``N^2/tau + K^2 tau/3``.
+    horizon : float or None
+        The export's horizon H, s (a vertical line: the range it bounds the model over).
+    minimum : tuple of float or None
+        ``(tau, adev)`` of the model's Allan minimum (the bias instability's point).
+    band_tau, band_low, band_high : ndarray or None
+        A band of simulated Allan deviations.
+    band_label : str
+    """
+
+    column: str
+    unit: str
+    tau: np.ndarray | None = None
+    adev: np.ndarray | None = None
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+    model_tau: np.ndarray | None = None
+    model_adev: np.ndarray | None = None
+    model_name: str = ""
+    noise_density: float | None = None
+    random_walk: float | None = None
+    horizon: float | None = None
+    minimum: tuple[float, float] | None = None
+    band_tau: np.ndarray | None = None
+    band_low: np.ndarray | None = None
+    band_high: np.ndarray | None = None
+    band_label: str = "simulations (95%)"
+
+    def taus(self) -> np.ndarray:
+        """Every averaging time the panel draws at."""
+        parts = [np.asarray(t, dtype=float) for t in (self.tau, self.model_tau, self.band_tau)
+                 if t is not None]
+        return np.concatenate(parts) if parts else np.empty(0)
+
+
+def _shown(values: Any, unit: str, shown: str) -> np.ndarray:
+    if shown == unit:
+        return np.asarray(values, dtype=float)
+    return np.asarray(convert(np.asarray(values, dtype=float), unit, shown), dtype=float)
+
+
+def plot_allan(curves: AllanCurves, ax: Any = None, *, legend: bool = True,
+               unit: str | None = None) -> Any:
+    """An Allan deviation in datasheet units: data (95 % interval), model, export bound.
+
+    Parameters
+    ----------
+    curves : AllanCurves
+        What to draw (SI).
+    ax : matplotlib Axes, optional
+        Draw into these axes; by default a new Figure is created.
+    legend : bool
+        Draw the legend.
+    unit : str, optional
+        Unit of the y axis (default :func:`allan_unit` of the curves).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if ax is None:
+        fig = _figure_class()(figsize=FIGSIZE)
+        fig.subplots_adjust(**MARGINS)
+        ax = fig.add_subplot()
+    c, u = curves, curves.unit
+    ref = c.adev if c.adev is not None else c.model_adev
+    shown = unit or allan_unit(u, () if ref is None else ref)
+    if c.band_tau is not None and c.band_low is not None and c.band_high is not None:
+        ax.fill_between(c.band_tau, _shown(c.band_low, u, shown), _shown(c.band_high, u, shown),
+                        color="0.8", label=c.band_label)
+    if c.tau is not None and c.adev is not None:
+        if c.low is not None and c.high is not None:
+            ax.fill_between(c.tau, _shown(c.low, u, shown), _shown(c.high, u, shown), color="C0",
+                            alpha=0.3, label="data 95% CI")
+        ax.loglog(c.tau, _shown(c.adev, u, shown), ".", color="C0", ms=3, label="data ADEV")
+    if c.model_tau is not None and c.model_adev is not None:
+        ax.loglog(c.model_tau, _shown(c.model_adev, u, shown), "-", color="C3",
+                  label=f"model {c.model_name}".strip())
+    if c.minimum is not None:
+        ax.loglog([c.minimum[0]], _shown([c.minimum[1]], u, shown), "v", color="C3", ms=6,
+                  label="model minimum (bias instability)")
+    taus = c.taus()
+    if c.noise_density is not None and c.random_walk is not None and taus.size:
+        t = np.geomspace(float(np.min(taus)), float(np.max(taus)), 200)
+        bound = np.sqrt(c.noise_density ** 2 / t + c.random_walk ** 2 * t / 3.0)
+        ax.loglog(t, _shown(bound, u, shown), "--", color="k", lw=1.0,
+                  label="exported N\u00b2/\u03c4 + K\u00b2\u03c4/3")
+        if c.horizon is not None:
+            ax.axvline(c.horizon, color="0.4", ls=":", lw=1.0, label="export horizon H")
+    ax.set_xlabel("averaging time tau [s]")
+    ax.set_ylabel(f"Allan deviation [{shown}]")
+    ax.set_title(f"{c.column}: {c.model_name}" if c.model_name else c.column, fontsize="medium")
+    ax.grid(True, which="both", alpha=0.3)
+    if legend:
+        ax.legend(fontsize="x-small")
+    return ax.figure
+
+
+def allan_figure(panels: Sequence[AllanCurves], ncols: int = 3, *,
+                 panel_size: tuple[float, float] = (3.7, 3.0)) -> Any:
+    """One Allan-deviation panel per axis (:func:`plot_allan`) on a grid of `ncols` columns,
+    one legend under the grid.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not panels:
+        raise InputError("allan_figure needs at least one panel")
+    ncols = max(1, min(check_positive_int(ncols, name="ncols"), len(panels)))
+    nrows = math.ceil(len(panels) / ncols)
+    legend_height = 0.35  # inches
+    height = panel_size[1] * nrows + legend_height
+    fig = _figure_class()(figsize=(panel_size[0] * ncols, height))
+    grid = fig.subplots(nrows, ncols, squeeze=False)
+    labels: dict[str, Any] = {}
+    for k, ax in enumerate(grid.flat):
+        if k < len(panels):
+            plot_allan(panels[k], ax, legend=False)
+            for handle, label in zip(*ax.get_legend_handles_labels()):
+                if not label.startswith("model ") or label.startswith("model minimum"):
+                    labels.setdefault(label, handle)
+                else:
+                    labels.setdefault("final model", handle)
+        else:
+            ax.set_axis_off()
+    fig.legend(list(labels.values()), list(labels), loc="lower center", ncol=len(labels),
+               fontsize="small", frameon=False)
+    fig.tight_layout(rect=(0.0, legend_height / height, 1.0, 1.0))
+    return fig
