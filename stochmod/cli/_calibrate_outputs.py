@@ -12,12 +12,29 @@ from typing import TYPE_CHECKING
 
 from stochmod.core.units import SENSORS
 from stochmod.fit.selection import SelectionResult
-from stochmod.output.exports import EXPORT_FORMATS, write_exports
+from stochmod.io.calibration import Calibration
+from stochmod.output.exports import (
+    DEFAULT_HORIZON_CAP,
+    EXPORT_FORMATS,
+    exports_from_calibration,
+    write_exports,
+)
 
 if TYPE_CHECKING:
     from stochmod.workflows.calibrate import CalibrationRun
 
-__all__ = ["add_output_arguments", "fleet_requested", "write_exports_for", "write_report_for"]
+__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "fleet_requested", "write_exports_for",
+           "write_report_for"]
+
+#: Help of ``--export-horizon`` (``calibrate`` and ``export``).
+EXPORT_HORIZON_HELP = (
+    "H, s: the exported white density N and random walk K are the tightest pair whose Allan "
+    "variance (N^2/tau + K^2 tau/3, as sampled at fs) over-bounds the final model's at every "
+    "tau in [1/fs, H], "
+    "never below the model's own N and K "
+    f"(default min({DEFAULT_HORIZON_CAP:g} s, record/10): the longest coast on the bias model "
+    "a filter is expected to bridge, within what the record's Allan variance checks); the "
+    "files' headers state the range and the inflation over the model's own N and K")
 
 
 def add_output_arguments(p: argparse.ArgumentParser) -> None:
@@ -38,8 +55,7 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
                         "(OUT/kalibr_imu_chain.yaml), pyins (OUT/pyins_imu.json), stochmod-nav "
                         "(OUT/stochmod_nav.json)")
     g.add_argument("--export-horizon", type=float, default=None, metavar="SECONDS",
-                   help="horizon H of the random walk that bounds a GM/AR component in the "
-                        "exports (default one sample: the GM's driving noise)")
+                   help=EXPORT_HORIZON_HELP)
     g.add_argument("--rostopic", default="/imu0", help="IMU topic in the Kalibr/OpenVINS files")
     g.add_argument("--report", action="store_true",
                    help="write OUT/report.html: figures, selection, datasheet, exports in one file")
@@ -55,13 +71,18 @@ def fleet_requested(args: argparse.Namespace) -> bool:
     return bool(args.more_files) or args.workers is not None or bool(args.scheduler)
 
 
-def write_exports_for(args: argparse.Namespace, results: list[SelectionResult],
+def write_exports_for(args: argparse.Namespace, source: Calibration | list[SelectionResult],
                       units: dict[str, str], out: Path) -> list[Path]:
-    """The ``--export`` files."""
+    """The ``--export`` files: from the calibration's final models
+    (:func:`stochmod.output.exports.exports_from_calibration`, the same files as ``stochmod
+    export OUT/calibration.json``), or from selections' best fits (the columns of `units`)."""
     if not args.export:
         return []
-    return write_exports(args.export, {s.column: s.best for s in results}, units, out,
-                         horizon=args.export_horizon, rostopic=args.rostopic)
+    if isinstance(source, Calibration):
+        return exports_from_calibration(source, args.export, out, horizon=args.export_horizon,
+                                        rostopic=args.rostopic)
+    return write_exports(args.export, {s.column: s.best for s in source if s.column in units},
+                         units, out, horizon=args.export_horizon, rostopic=args.rostopic)
 
 
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
