@@ -38,8 +38,8 @@ from stochmod.core.tables import format_table
 from stochmod.empirical.pooled import PooledWaveletVariance
 from stochmod.empirical.wavelet_variance import WaveletVariance
 
-__all__ = ["GMWMResult", "JTest", "ParameterEstimate", "Binding", "negligible_components",
-           "JTEST_MIN_EDF"]
+__all__ = ["GMWMResult", "JTest", "JTestForm", "ParameterEstimate", "Binding", "Resampling",
+           "negligible_components", "JTEST_MIN_EDF"]
 
 #: Smallest equivalent degrees of freedom M_j / 2^j of a level used by the J-test.
 JTEST_MIN_EDF = 16.0
@@ -69,6 +69,23 @@ class Binding(Protocol):
         data's in eqs. 22-27."""
 
 
+class Resampling(Protocol):
+    """Inference by resampling that replaces the asymptotic one where it applies (the
+    parametric bootstrap of :mod:`stochmod.fit.bootstrap`).
+
+    Each method returns None where the asymptotic result (eqs. 22-23, 27) is kept.
+    """
+
+    def parameter(self, index: int) -> tuple[float, float, float] | None:
+        """``(std_error, low, high)`` of free parameter `index` (natural scale)."""
+
+    def physical(self, name: str) -> tuple[float, float, float] | None:
+        """``(std_error, low, high)`` of physical parameter `name` (``"GM1.Tc"`` ...)."""
+
+    def jtest(self) -> JTest | None:
+        """The J-test (its p-value from the resampled statistic)."""
+
+
 @attrs.frozen
 class JTest:
     """Goodness-of-fit J-test of eq. 27: statistic ~ chi2(df) under the model."""
@@ -76,6 +93,41 @@ class JTest:
     statistic: float
     df: int
     pvalue: float
+
+
+@attrs.frozen
+class JTestForm:
+    """The quadratic form of the J-test (eq. 27) at a fit: ``J(r) = sum_k (e_k' r_s)^2 / l_k``
+    with ``r_s = r[keep] / scale`` the residual on the correlation scale and ``(l_k, e_k)``
+    the `df` largest eigenpairs of the correlation form of ``P V P'`` on the kept levels
+    (:attr:`GMWMResult.jtest_form`).
+
+    Attributes
+    ----------
+    keep : ndarray of int
+        Levels (0-based) the statistic uses.
+    scale : ndarray
+        ``sqrt(V_jj)`` on those levels, unit^2.
+    variances : ndarray (df,)
+        Eigenvalues ``l_k`` (dimensionless).
+    directions : ndarray (len(keep), df)
+        Eigenvectors ``e_k``.
+    """
+
+    keep: np.ndarray
+    scale: np.ndarray
+    variances: np.ndarray
+    directions: np.ndarray
+
+    @property
+    def df(self) -> int:
+        """Degrees of freedom of the chi-square reference."""
+        return int(self.variances.size)
+
+    def statistic(self, residual: np.ndarray) -> float:
+        """``J(r)`` of a residual ``r = nu_hat - nu(theta_hat)`` at levels 1..J, unit^2."""
+        z = self.directions.T @ (residual[self.keep] / self.scale)
+        return float(np.sum(z * z / self.variances))
 
 
 @attrs.frozen
@@ -152,6 +204,9 @@ class GMWMResult:
     pooled : PooledWaveletVariance or None
         The pooling of replicate recordings when the fit matched their pooled WV (its
         ``test`` says whether they share one WV).
+    resampling : Resampling or None
+        Bootstrap inference (:func:`stochmod.fit.bootstrap.bootstrap`) that replaces the
+        asymptotic intervals and J-test p-value where it applies; None: asymptotic only.
     """
 
     model: Model
@@ -173,6 +228,7 @@ class GMWMResult:
     rng_seed: int = 0
     binding: Binding | None = attrs.field(default=None, repr=False)
     pooled: PooledWaveletVariance | None = attrs.field(default=None, repr=False)
+    resampling: Resampling | None = attrs.field(default=None, repr=False)
 
     @classmethod
     def from_search(cls, found: SearchResult, *, empirical: WaveletVariance, omega: np.ndarray,
@@ -288,7 +344,17 @@ class GMWMResult:
 
     @functools.cached_property
     def jtest(self) -> JTest | None:
-        """J-test of eq. 27, valid for any weighting.
+        """The J-test: :attr:`asymptotic_jtest`, with the bootstrap p-value of
+        :attr:`resampling` when there is one."""
+        if self.resampling is not None:
+            found = self.resampling.jtest()
+            if found is not None:
+                return found
+        return self.asymptotic_jtest
+
+    @functools.cached_property
+    def asymptotic_jtest(self) -> JTest | None:
+        """J-test of eq. 27 with its chi-square p-value, valid for any weighting.
 
         At the estimate the residual is ``r = nu_hat - nu(theta_hat) ~ P e`` with
         ``P = I - D (D' Omega D)^{-1} D' Omega`` and ``e`` the WV's error of covariance V, so
@@ -307,6 +373,16 @@ class GMWMResult:
         fall below :data:`~stochmod.fit.engine.IDENTIFIED_RTOL` of the largest:
         :func:`~stochmod.fit.engine.weighted_svd`, whose orthogonal factors give ``P``).
         """
+        form = self.jtest_form
+        if form is None:
+            return None
+        stat = form.statistic(self.empirical.wv[: self.levels] - self.model_wv())
+        return JTest(stat, form.df, float(special.chdtrc(form.df, stat)))
+
+    @functools.cached_property
+    def jtest_form(self) -> JTestForm | None:
+        """The quadratic form of :attr:`asymptotic_jtest` (levels, V, the fit's projection),
+        None where that test is None."""
         # a component whose amplitude ran to zero sits on the boundary: its directions are
         # not fitted (the estimate could not go below zero), so they stay in the residual
         dropped = set(negligible_components(self))
@@ -325,7 +401,6 @@ class GMWMResult:
             return None  # parameters not identified: no residual covariance to test against
         P = np.eye(J) - solve_triangular(L, U @ (U.T @ L))  # I - L^-1 U U' L
         C = (P @ V @ P.T)[np.ix_(keep, keep)]
-        r = (self.empirical.wv[:J] - self.model_wv())[keep]
         scale = np.sqrt(np.diag(V)[keep])  # units: work on the correlation scale
         evals, evecs = np.linalg.eigh(C / np.outer(scale, scale))
         # directions the fit nearly absorbs carry almost no residual variance, estimated
@@ -333,41 +408,55 @@ class GMWMResult:
         df = min(df, int(np.sum(evals > _JTEST_RANK_RTOL * evals[-1])))
         if df < 1:
             return None
-        evals, evecs = evals[-df:], evecs[:, -df:]
-        z = evecs.T @ (r / scale)
-        stat = float(np.sum(z * z / evals))
-        return JTest(stat, int(df), float(special.chdtrc(df, stat)))
+        return JTestForm(keep, scale, evals[-df:], evecs[:, -df:])
 
     def parameters(self) -> list[ParameterEstimate]:
         """Canonical parameters with standard errors and intervals.
 
         Positive parameters get intervals on the log scale (delta method), so they stay
-        positive; others are symmetric.
+        positive; others are symmetric. Where :attr:`resampling` gives one, its standard error
+        and interval replace the asymptotic ones (:mod:`stochmod.fit.bootstrap`).
         """
         z = special.ndtri(1 - self.alpha / 2)
         vec = self.model.vector()[self.free_mask]
         units = _units(self.model)[self.free_mask]
+        boot = self.resampling
         out = []
-        for name, v, se, unit in zip(self.free_names, vec, self.std_errors, units):
-            lo, hi = _interval(v, se, z)
+        for i, (name, v, unit) in enumerate(zip(self.free_names, vec, units)):
+            found = None if boot is None else boot.parameter(i)
+            if found is None:
+                se = self.std_errors[i]
+                lo, hi = _interval(v, se, z)
+            else:
+                se, lo, hi = found
             out.append(ParameterEstimate(name, float(v), float(se), lo, hi, unit))
         return out
 
     def physical(self) -> list[ParameterEstimate]:
         """Physical parameters (GM correlation time and sigma, WN density, RW K ...) with
-        intervals from the delta method on the log scale."""
+        intervals from the delta method on the log scale, or from :attr:`resampling` where
+        it gives one."""
         z = special.ndtri(1 - self.alpha / 2)
+        boot = self.resampling
         freq = self.model.freq
-        C = np.zeros((self.model.n_params,) * 2)
-        C[np.ix_(self.free_mask, self.free_mask)] = self.cov_params
+        C = None  # the asymptotic covariance, when some value needs it
         out, start = [], 0
         for label, proc in zip(self.model.labels, self.model.processes):
             k = proc.n_params
             vec = proc.vector()
-            Cp = C[start : start + k, start : start + k]
+            block = slice(start, start + k)
             start += k
             base = proc.physical(freq)
             for name, pv in base.items():
+                found = None if boot is None else boot.physical(f"{label}.{name}")
+                if found is not None:
+                    se, lo, hi = found
+                    out.append(ParameterEstimate(f"{label}.{name}", pv.value, se, lo, hi, pv.unit))
+                    continue
+                if C is None:
+                    C = np.zeros((self.model.n_params,) * 2)
+                    C[np.ix_(self.free_mask, self.free_mask)] = self.cov_params
+                Cp = C[block, block]
                 grad = np.array([_physical_derivative(proc, vec, i, name, pv.value, freq)
                                  for i in range(k)])
                 se = float(np.sqrt(max(grad @ Cp @ grad, 0.0)))  # NaN when grad is unknown
