@@ -186,7 +186,8 @@ def test_the_axis_figure_draws_its_allan_deviation_in_datasheet_units(report):
 def test_allan_units_follow_the_sensor():
     assert allan_unit("rad/s") == "deg/h"
     assert allan_unit("m/s^2", [1e-4]) == "ug"  # about 10 ug
-    assert allan_unit("m/s^2", [0.05, 0.02]) == "mg"  # thousands of ug
+    assert allan_unit("m/s^2", [0.05, 0.005]) == "ug"  # the minimum is about 500 ug
+    assert allan_unit("m/s^2", [0.05, 0.02]) == "mg"  # thousands of ug everywhere
     assert allan_unit("V") == "V"
     tau = np.array([0.1, 1.0, 10.0])
     fig = plot_allan(AllanCurves("accel_z", "m/s^2", tau=tau, adev=np.full(3, 0.02),

@@ -6,7 +6,7 @@ theoretical WV, and the WVs of synthetic series simulated from the fit. Figures 
 with matplotlib's object API (no pyplot state, no display needed).
 
 :func:`plot_allan` draws an Allan deviation in datasheet units (deg/h for a gyroscope, ug or
-mg for an accelerometer, :func:`allan_unit`): the data with their interval, a model's curve,
+mg for a coarse accelerometer, :func:`allan_unit`): the data with their interval, a model's curve,
 the white-plus-random-walk bound ``N^2/tau + K^2 tau/3`` of an export; :func:`allan_figure`
 puts one such panel per axis on a grid.
 """
@@ -46,6 +46,15 @@ def _figure_class() -> Any:
     except ImportError:
         raise ImportError('figures need matplotlib: pip install "stochmod[plots]"') from None
     return Figure
+
+
+def _axes(ax: Any) -> Any:
+    """`ax`, or the axes of a new Figure of :data:`FIGSIZE` with :data:`MARGINS`."""
+    if ax is not None:
+        return ax
+    fig = _figure_class()(figsize=FIGSIZE)
+    fig.subplots_adjust(**MARGINS)
+    return fig.add_subplot()
 
 
 def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | int = 0,
@@ -109,12 +118,8 @@ def plot_fit(fit: GMWMResult, *, n_sim: int = 20, rng: np.random.Generator | int
     -------
     matplotlib.figure.Figure
     """
-    if ax is None:
-        fig = _figure_class()(figsize=FIGSIZE)
-        fig.subplots_adjust(**MARGINS)
-        ax = fig.add_subplot()
-    else:
-        fig = ax.figure
+    ax = _axes(ax)
+    fig = ax.figure
     emp, J = fit.empirical, fit.levels
     tau = emp.tau[:J]
     if simulated is None:
@@ -147,15 +152,16 @@ def save_fit_figure(fit: GMWMResult, path: str | Path, **kwargs: Any) -> Path:
 
 
 #: Datasheet unit of an Allan deviation by the physical kind of the signal; an accelerometer's
-#: switches from ug to mg where its curve lies above :data:`_MG_FROM` ug.
+#: switches from ug to mg where its whole curve lies above :data:`_MG_FROM` ug.
 ALLAN_UNITS = {"rate": "deg/h", "acceleration": "ug"}
 _MG_FROM = 1000.0
 
 
 def allan_unit(unit: str, adev: Any = ()) -> str:
     """The unit an Allan deviation of a signal in `unit` is drawn in: deg/h for a rate,
-    ug for an acceleration (mg when the median of `adev`, in `unit`, reaches 1000 ug), `unit`
-    itself for anything else (an unknown unit too)."""
+    ug for an acceleration (the unit of its bias instability; mg when even the minimum of
+    `adev`, in `unit`, reaches 1000 ug), `unit` itself for anything else (an unknown unit
+    too)."""
     try:
         kind = parse_unit(unit).kind
     except InputError:
@@ -166,7 +172,7 @@ def allan_unit(unit: str, adev: Any = ()) -> str:
     values = np.asarray(adev, dtype=float)
     values = values[np.isfinite(values) & (values > 0)]
     if kind == "acceleration" and values.size and (
-            float(convert(np.median(values), unit, "ug")) >= _MG_FROM):
+            float(convert(np.min(values), unit, "ug")) >= _MG_FROM):
         return "mg"
     return shown
 
@@ -248,10 +254,7 @@ def plot_allan(curves: AllanCurves, ax: Any = None, *, legend: bool = True,
     -------
     matplotlib.figure.Figure
     """
-    if ax is None:
-        fig = _figure_class()(figsize=FIGSIZE)
-        fig.subplots_adjust(**MARGINS)
-        ax = fig.add_subplot()
+    ax = _axes(ax)
     c, u = curves, curves.unit
     ref = c.adev if c.adev is not None else c.model_adev
     shown = unit or allan_unit(u, () if ref is None else ref)
