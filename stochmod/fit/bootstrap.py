@@ -490,6 +490,16 @@ class Bootstrap:
         k = names.index(name)
         return self.physical_interval(k) if self.use_physical[k] else None
 
+    def describe(self) -> str:
+        """Which intervals come from the bootstrap, its method and size."""
+        names = [n for n, u in zip(self.draws.physical_names, self.use_physical) if u]
+        free = [str(n) for n, u in zip(self.diagnostic.names if self.diagnostic else (),
+                                       self.use) if u]
+        which = ("every parameter" if self.diagnostic is None
+                 else ", ".join(free + names) + " (flagged by the identification diagnostic)")
+        return (f"bootstrap ({self.method}, B = {self.draws.size}, {self.draws.failed} failed "
+                f"refits): intervals of {which}; J-test p-value from the bootstrap")
+
     def jtest(self) -> JTest | None:
         """The J-test with its bootstrap p-value (None without an asymptotic statistic)."""
         if self.observed is None:

@@ -85,6 +85,9 @@ class Resampling(Protocol):
     def jtest(self) -> JTest | None:
         """The J-test (its p-value from the resampled statistic)."""
 
+    def describe(self) -> str:
+        """One line for :meth:`GMWMResult.summary`: which results are resampled, and how."""
+
 
 @attrs.frozen
 class JTest:
@@ -484,6 +487,8 @@ class GMWMResult:
         jt = self.jtest
         if jt is not None:
             lines.append(f"J-test (eq. 27): statistic {jt.statistic:.4g}, df {jt.df}, p-value {jt.pvalue:.3g}")
+        if self.resampling is not None:
+            lines.append(self.resampling.describe())
         lines.append(f"converged: {self.converged} ({self.n_starts} local searches, "
                      f"{self.n_evaluations} evaluations): {self.message}")
         if emp.contamination is not None:
