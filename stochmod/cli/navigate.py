@@ -42,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Run the closed-loop error-state EKF (stochmod.nav) on a recording and write "
             "DIR/trajectory.csv (time, lat, lon, height, vn, ve, vd, roll, pitch, heading and a "
             "sd_ column for each: sd_lat/sd_lon/sd_height are north/east/down 1-sigma in m, "
-            "sd_roll/sd_pitch/sd_heading the attitude-error 1-sigma in deg), DIR/report.txt and, "
+            "sd_roll/sd_pitch/sd_heading the attitude-error 1-sigma in deg), with --smooth "
+            "DIR/trajectory_smoothed.csv (the same columns), DIR/report.txt, DIR/health.json and, "
             "with matplotlib, DIR/map.png and DIR/sigma.png. IMU_FILE: header time, gyro_x, "
             "gyro_y, gyro_z, accel_x, accel_y, accel_z (rad/s, m/s^2, w.r.t. inertial space, "
             "body x forward / y right / z down) or time, dtheta_x..z, dv_x..z (rad, m/s over the "
@@ -108,6 +109,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="initial heading 1-sigma, deg (default 3 with --init, 5 aligned)")
     p.add_argument("--vel-sd", type=float, default=DEFAULT_VEL_SD, metavar="M_S",
                    help=f"GNSS velocity 1-sigma per axis, m/s (default {DEFAULT_VEL_SD:g})")
+    p.add_argument("--smooth", action="store_true",
+                   help="also run the fixed-interval (Rauch-Tung-Striebel) smoother and write "
+                        "DIR/trajectory_smoothed.csv (the columns of trajectory.csv, the "
+                        "sigmas smoothed)")
     p.add_argument("--accept-untrusted", action="store_true",
                    help="exit with status 0 even when the solution fails the health rule "
                         "(the warning and the report stay)")
@@ -212,6 +217,7 @@ def _report(args: argparse.Namespace, imu: ImuData, gnss: GnssData, result: NavR
         + ", ".join(f"gyro_{a}: {m.name}" for a, m in gyro.items()) + "; "
         + ", ".join(f"accel_{a}: {m.name}" for a, m in accel.items()),
         f"turn-on bias 1-sigma: gyro {gyro_bias_sd:.3g} rad/s, accel {accel_bias_sd:.3g} m/s^2",
+        f"smoother: {'fixed-interval RTS, trajectory_smoothed.csv' if args.smooth else 'off'}",
         f"filter error model: {args.error_model}; GNSS velocity sd "
         f"{'from the file' if gnss.sd_vel is not None else f'{args.vel_sd:g} m/s'}",
         "",
@@ -293,10 +299,15 @@ def run(args: argparse.Namespace) -> int:
                                recover_after=recover_after, gnss_vel_sd=vel_sd)
     result = flt.run(imu.time, imu.gyro, imu.accel, kind=imu.kind, gnss=gnss,
                      init=_init(args.init, imu), outages=outages,
-                     init_sd=None if all(v is None for v in init_sd) else init_sd)
+                     init_sd=None if all(v is None for v in init_sd) else init_sd,
+                     smooth=args.smooth)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     written = [_write_trajectory(out / "trajectory.csv", result)]
+    if result.smoothed is not None:
+        written.append(_write_trajectory(out / "trajectory_smoothed.csv", result.smoothed))
+    else:  # not the smoothed solution of an earlier run
+        (out / "trajectory_smoothed.csv").unlink(missing_ok=True)
     report = _report(args, imu, gnss, result, gyro, accel, gyro_bias_sd, accel_bias_sd)
     (out / "report.txt").write_text(report)
     health = result.health()

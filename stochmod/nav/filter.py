@@ -60,10 +60,14 @@ if the cause persists, the next run of rejections scales again, until the sensor
 sigmas cover it. Each recovery is kept (:class:`Recovery`, ``NavResult.recoveries``) and its
 NIS row is flagged 2 (accepted 1, rejected 0). On an emulated drive with 5000 deg/h gyro
 biases and a 300 deg/h prior the filter recovers twice and reaches the accuracy of the same
-drive without the biases (tests/nav/test_gating.py); without the recovery it rejects 98 % of
-the fixes and drifts by tens of km. The price: a run of more than ``recover_after`` bad fixes
+drive without the biases (tests/nav/test_gating.py); without the recovery it rejects 97 % of
+the fixes and drifts by 85 km. The price: a run of more than ``recover_after`` bad fixes
 (multipath) is taken after the inflation; the inflated covariance then lets the good fixes
 that follow pull the solution back.
+
+Smoothing (``run(..., smooth=True)``): the forward pass also stores, per filter epoch, the
+smoother gain and the fed-back estimate, and ``NavResult.smoothed`` is the fixed-interval
+Rauch-Tung-Striebel solution over the record (:mod:`stochmod.nav.smoother`).
 
 Error model (``error_model``): how the estimate is fed back and where the covariance is held
 across the feedback (the reset). Write ``e`` for the error before a feedback, ``e_hat`` for the
@@ -118,6 +122,12 @@ from stochmod.nav.measurements import (
     ZeroVelocity,
 )
 from stochmod.nav.records import GnssData, TrajectoryArrays, check_time
+from stochmod.nav.smoother import (
+    SmootherStore,
+    correct_rows,
+    interpolate_errors,
+    node_ranges,
+)
 from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
 
 __all__ = [
@@ -419,6 +429,10 @@ class NavResult(TrajectoryArrays):
         Each recovery from a run of rejected updates (module notes, "Gating and recovery").
     alignment : Alignment
         Where and how the filter started.
+    smoothed : NavResult or None
+        With ``run(..., smooth=True)``: the fixed-interval smoothed solution, the same fields
+        at the same times (its ``epoch_sd``, ``sensor_states``, ``nees`` smoothed; its
+        innovations, NIS and rejections the forward pass's).
     nees : ndarray (k,) or None
         NEES of the 9 navigation states against the truth at each epoch (``truth`` given).
     random_walks : tuple of RandomWalkEquivalent
@@ -443,6 +457,7 @@ class NavResult(TrajectoryArrays):
     recoveries: tuple = ()
     recover_after: int | None = None
     alignment: Alignment | None = None
+    smoothed: NavResult | None = attrs.field(default=None, eq=False, repr=False)
 
     @property
     def lever_arm(self) -> np.ndarray | None:
@@ -961,7 +976,7 @@ class LooselyCoupledFilter:
             outages: Sequence[tuple[float, float]] = (), truth: Trajectory | None = None,
             heading: tuple[ArrayLike, ArrayLike, float] | None = None,
             zero_velocity: tuple[ArrayLike, float] | None = None,
-            init_sd: Sequence[float | None] | None = None) -> NavResult:
+            init_sd: Sequence[float | None] | None = None, smooth: bool = False) -> NavResult:
         """Run the filter over an IMU record.
 
         Parameters
@@ -984,6 +999,9 @@ class LooselyCoupledFilter:
         init_sd : (position, velocity, level, heading), optional
             Initial 1-sigma replacing those of `init` or of the alignment: position N/E/D (m),
             velocity (m/s), roll and pitch (deg), heading (deg); None entries keep theirs.
+        smooth : bool
+            Also run the fixed-interval (Rauch-Tung-Striebel) smoother over the record
+            (:mod:`stochmod.nav.smoother`): ``NavResult.smoothed`` is the smoothed solution.
         """
         t_all, g_all, a_all = check_imu(imu_time, gyro, accel)
         if init is None:
@@ -1015,8 +1033,10 @@ class LooselyCoupledFilter:
         alignment = Alignment(float(t[0]), float(t_all[0]), float(init.lat), float(init.lon),
                               float(init.height), float(np.linalg.norm(init.vel_ned)), source,
                               tuple(np.r_[sd[:6], np.degrees(sd[6:])].tolist()))
-        run = _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth)
-        return attrs.evolve(run.execute(), alignment=alignment)
+        run = _Run(self, sens, init, t, h, dth, dv, con, scu, events, truth, smooth)
+        res = run.execute()
+        sm = None if res.smoothed is None else attrs.evolve(res.smoothed, alignment=alignment)
+        return attrs.evolve(res, alignment=alignment, smoothed=sm)
 
 
 def _with_sd(init: InitialState, init_sd: Sequence[float | None]) -> InitialState:
@@ -1044,7 +1064,8 @@ class _Run:
 
     def __init__(self, flt: LooselyCoupledFilter, sens: _Sensors, init: InitialState,
                  t: np.ndarray, h: np.ndarray, dth: np.ndarray, dv: np.ndarray, con: np.ndarray,
-                 scu: np.ndarray, events: list, truth: Trajectory | None) -> None:
+                 scu: np.ndarray, events: list, truth: Trajectory | None,
+                 smooth: bool = False) -> None:
         self.flt, self.sens = flt, sens
         self.t, self.h, self.dth, self.dv, self.con, self.scu = t, h, dth, dv, con, scu
         self.events, self.truth = events, truth
@@ -1068,6 +1089,11 @@ class _Run:
         self.rejected: dict[str, int] = {}
         self.streak: dict[str, int] = {}
         self.recoveries: list[Recovery] = []
+        self.store = None
+        self.n_epochs = 0
+        if smooth:  # one node per filter step and per measurement epoch, at most
+            steps = math.ceil((t[-1] - t[0]) / flt.dt_filter) + len({e[0] for e in events}) + 2
+            self.store = SmootherStore(self.n, min(steps, t.size + 1))
 
     # -------------------------------------------------------------- covariance propagation
     def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
@@ -1095,7 +1121,10 @@ class _Run:
             Phi[:9, 9:] = 0.5 * dt * (Pnn @ Fns + Fns @ Pss)
             Q = _bdiag(Qnn, Qss)
         P = Phi @ self.P @ Phi.T + Q
-        self.P = 0.5 * (P + P.T)  # Alg. 1 line 8
+        P = 0.5 * (P + P.T)  # Alg. 1 line 8
+        if self.store is not None:
+            self.store.step(self.P, Phi, P, self.n_epochs)
+        self.P = P
         if ns:  # nominal sensor errors follow their mean dynamics
             self.s = Phi[9:, 9:] @ self.s
             self.corr = sens.H @ self.s
@@ -1179,11 +1208,15 @@ class _Run:
 
     def _inflate(self, lam: float) -> None:
         """Scale the whole error covariance by `lam` >= 1 (the recovery)."""
+        if self.store is not None:
+            self.store.inflate(self.P, lam, self.n_epochs)
         self.P = self.P * lam
 
     def _feedback(self, dx: np.ndarray) -> None:
         """Correct the mechanisation and the nominal sensor errors (Alg. 2 lines 28-30)."""
         mech = self.mech
+        if self.store is not None:
+            self.store.correct(dx)
         sl = math.sin(mech.lat)
         w = 1.0 - earth.E2 * sl * sl
         re = earth.A / math.sqrt(w)
@@ -1204,6 +1237,8 @@ class _Run:
             mech.v = (float(new[0]), float(new[1]), float(new[2]))
             self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
                                                              frames.skew(new - v)]))
+            if self.store is not None:
+                self.store.reset(new - v)
         else:
             mech.v = (vn - d[3], ve - d[4], vd - d[5])
         # eq. 26 in multiplicative form: q <- q(psi) * q
@@ -1295,6 +1330,7 @@ class _Run:
                        self.corr.copy()))
         epoch_rows.append(row)
         nav_P.append(self.P[:9, :9].copy())
+        self.n_epochs = len(epochs)
 
     def _check_psd(self) -> None:
         """Raise EstimationError unless the covariance is finite and positive semi-definite
@@ -1319,10 +1355,39 @@ class _Run:
         if self.truth is not None:
             nees = _nees(self.truth, arr[epoch_rows], et, np.array(nav_P))
         pack = lambda d: {k: np.array(v) for k, v in d.items()}  # noqa: E731
+        innov, nis = pack(self.innov), pack(self.nis)
+        smoothed = None
+        if self.store is not None:
+            smoothed = self._smoothed(arr, epoch_rows, et, ess, innov, nis)
         return NavResult(
             self.t, np.degrees(arr[:, 0]), np.degrees(arr[:, 1]), arr[:, 2], arr[:, 3:6],
             frames.quat_to_rph(arr[:, 6:10]), sd[:, 0:3], sd[:, 3:6], np.degrees(sd[:, 6:9]),
-            et, NAV_STATES + self.sens.names, esd, ess, eer, pack(self.innov), pack(self.nis),
+            et, NAV_STATES + self.sens.names, esd, ess, eer, innov, nis,
+            dict(self.rejected), nees, self.flt.gate, self.sens.random_walks,
+            tuple(self.recoveries), self.flt.recover_after, smoothed=smoothed)
+
+    def _smoothed(self, arr: np.ndarray, epoch_rows: list, et: np.ndarray, ess: np.ndarray,
+                  innov: dict, nis: dict) -> NavResult:
+        """The fixed-interval smoothed solution (:mod:`stochmod.nav.smoother`)."""
+        store = self.store
+        store.finish(self.P)
+        s, u, sd_nodes, nav_cov = store.backward()
+        rows_e = np.asarray(epoch_rows)
+        first, last = node_ranges(store.epoch[:store.j + 1], et.size)
+        err = interpolate_errors(self.t, rows_e, et, first, last, s, u)
+        sm = correct_rows(arr, err, self.flt.error_model)
+        esd = sd_nodes[last]
+        ess_s = ess - s[last, 9:]
+        eer = ess_s @ self.sens.H.T if self.sens.n else np.zeros((et.size, 6))
+        idx = np.searchsorted(rows_e, np.arange(arr.shape[0]), side="right") - 1
+        sd = esd[idx]
+        nees = None
+        if self.truth is not None:
+            nees = _nees(self.truth, sm[rows_e], et, nav_cov[last])
+        return NavResult(
+            self.t, np.degrees(sm[:, 0]), np.degrees(sm[:, 1]), sm[:, 2], sm[:, 3:6],
+            frames.quat_to_rph(sm[:, 6:10]), sd[:, 0:3], sd[:, 3:6], np.degrees(sd[:, 6:9]),
+            et, NAV_STATES + self.sens.names, esd, ess_s, eer, innov, nis,
             dict(self.rejected), nees, self.flt.gate, self.sens.random_walks,
             tuple(self.recoveries), self.flt.recover_after)
 

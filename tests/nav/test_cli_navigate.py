@@ -388,3 +388,27 @@ def test_navigate_initial_and_velocity_sigmas_reach_the_filter(recording, tmp_pa
     assert "in-motion alignment from GNSS" in report and "heading 12 deg" in report
     assert "level 2/2 deg" in report  # the alignment's own
 
+
+
+def test_navigate_smooth_writes_the_smoothed_trajectory(recording, tmp_path) -> None:
+    folder, truth = recording
+    out = tmp_path / "out"
+    assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(out), "--init", _init_text(truth), "--outage", "30", "15", "--smooth",
+                 "--no-plots"]) == 0
+    header = (out / "trajectory.csv").read_text().splitlines()[0]
+    assert (out / "trajectory_smoothed.csv").read_text().splitlines()[0] == header
+    filtered = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    smoothed = np.loadtxt(out / "trajectory_smoothed.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(smoothed[:, 0], filtered[:, 0])
+    t = filtered[:, 0] - truth.time[0]
+    gap = (t >= 30) & (t < 45)
+    err = {name: horizontal_error(truth, x[gap, 0], x[gap, 1], x[gap, 2]).max()
+           for name, x in (("filtered", filtered), ("smoothed", smoothed))}
+    assert err["smoothed"] < 0.5 * err["filtered"], err
+    assert np.all(smoothed[:, 10:] <= filtered[:, 10:] * (1 + 1e-6) + 1e-9)  # sigmas
+    assert "fixed-interval RTS" in (out / "report.txt").read_text()
+    # without --smooth in the same folder: no stale smoothed solution is left behind
+    assert main(["navigate", str(folder / "imu.csv"), str(folder / "gnss.csv"), "--out",
+                 str(out), "--init", _init_text(truth), "--no-plots"]) == 0
+    assert not (out / "trajectory_smoothed.csv").exists()

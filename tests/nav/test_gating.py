@@ -155,3 +155,18 @@ def test_matching_factor_brings_the_nis_to_its_target():
     assert matching_factor(np.array([10.0]), np.array([[4.0]]), np.array([[1.0]]), 1.0) == \
         pytest.approx(99.0 / 4.0, rel=1e-12)
     assert matching_factor(np.array([0.5]), np.array([[4.0]]), np.array([[1.0]]), 1.0) == 1.0
+
+
+def test_the_smoother_runs_across_recoveries(drive):
+    truth, _, biased, gnss, init, _ = drive
+    flt = LooselyCoupledFilter(GYRO, ACCEL, gyro_bias_sd=PRIOR_GYRO_BIAS_SD, accel_bias_sd=0.05)
+    res = flt.run(biased.time, biased.gyro, biased.accel, kind="increment", gnss=gnss, init=init,
+                  truth=truth, smooth=True)
+    sm = res.smoothed
+    assert res.recoveries and sm.recoveries == res.recoveries
+    late = res.time >= CONVERGED
+    filtered = horizontal_error(truth, res.time, res.lat, res.lon)[late]
+    smoothed = horizontal_error(truth, sm.time, sm.lat, sm.lon)[late]
+    assert np.sqrt(np.mean(smoothed**2)) < np.sqrt(np.mean(filtered**2))
+    assert np.all(sm.epoch_sd <= res.epoch_sd * (1 + 1e-6) + 1e-12)
+    assert np.isfinite(sm.nees).all()
