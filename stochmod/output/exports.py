@@ -36,10 +36,11 @@ It is a linear program in ``(N^2, K^2)`` (:func:`scipy.optimize.linprog`), solve
 averaging factor ``m <= 128`` and 128 per octave above, up to ``m = round(H fs)``; the pair is
 then scaled up by the largest remaining shortfall at **every** m of the range, if any (the
 solver's tolerance, or a shortfall of ~1e-9 between grid points), so that (1) holds at every
-averaging time ``m / fs`` a sampled record has (on the grid only beyond ``2^21`` samples).  A model of white noise and random walk only exports its own N and K (the
-ratio is 1 everywhere); every other component adds to them only as much as its Allan variance
-needs over the range.  At least one tau of the range is tight (``E = AVAR``): otherwise a
-smaller pair would do.
+averaging time ``m / fs`` a sampled record has (on the grid only beyond ``2^21`` samples).
+A model of white noise and random walk only exports its own N and K (the ratio is 1
+everywhere); every other component adds to them only as much as its Allan variance needs
+over the range.  At least one tau of the range is tight (``E = AVAR``): otherwise a smaller
+pair would do.
 
 ``AVAR_model`` is exact: twice the Haar wavelet variance at half-width m (the identity
 ``AVAR(m) = 2 nu^2_m``), i.e. for each stationary component of autocovariance ``g(k)`` ::
@@ -275,7 +276,8 @@ def component_avar(process: Process, freq: float, m: np.ndarray, unit: str = "ra
     """
     m = np.asarray(m, dtype=np.int64)
     if process.stationary and _has_autocovariance(process, freq):
-        both = np.unique(np.r_[m, 2 * m])
+        both = np.sort(np.r_[m, 2 * m])  # sorted, without repeats (np.unique is slow here)
+        both = both[np.r_[True, both[1:] != both[:-1]]]
         v = _block_variances(process, freq, both)
         vm, v2m = v[np.searchsorted(both, m)], v[np.searchsorted(both, 2 * m)]
         return (4.0 * vm - v2m) / (2.0 * m.astype(np.float64) ** 2)
@@ -290,7 +292,7 @@ def component_avar(process: Process, freq: float, m: np.ndarray, unit: str = "ra
         if np.allclose(own, s2 * (2.0 * dyadic**2 + 1.0) / (6.0 * dyadic), rtol=1e-9, atol=0):
             return avar
     raise InputError(
-        f"component {process.family} has no white-noise, random-walk or stationary form, so no "
+        f"{process.family} has no white-noise, random-walk or stationary form, so no "
         "white noise plus random walk bounds it (a rate ramp grows faster than any random "
         "walk); select without it (e.g. --families GM WN RW QN)")
 
@@ -422,8 +424,7 @@ def avar_bound(model: Model, sensor: str, *, column: str = "", horizon: float | 
         try:
             avar = component_avar(proc, freq, m, unit)
         except InputError as exc:
-            raise InputError(f"{column or 'the axis'}: component {label} ({proc.family}): "
-                             f"{exc}") from None
+            raise InputError(f"{column or 'the axis'}: component {label}: {exc}") from None
         if pkind is not None and pkind.endswith("_random_walk") and not proc.stationary:
             k2 += value * value
             walks.append(f"{label}.{next(iter(proc.physical(freq)))}")
