@@ -11,8 +11,13 @@ import stochmod
 from stochmod.core.errors import InputError, SpecError
 from stochmod.nav import earth
 from stochmod.nav.emulate import AXES, Segment, Trajectory
-from stochmod.nav.study import (OutageStudy, horizontal_error, max_outage_errors, outage_study,
-                                 truth_over_record)
+from stochmod.nav.study import (
+    OutageStudy,
+    horizontal_error,
+    max_outage_errors,
+    outage_study,
+    truth_over_record,
+)
 
 FS = 50.0
 WN, GM = stochmod.WN, stochmod.GM
@@ -103,8 +108,8 @@ def test_workers_give_the_serial_result() -> None:
     # each run draws from its own stream (seed, r): spreading the runs over processes changes
     # nothing, to the bit
     profile, outages = [Segment(15, speed=10), Segment(10, turn=60), Segment(15)], [(20.0, 10.0)]
-    kw = dict(runs=3, seed=5, profile=profile, rate=FS, outages=outages, gyro_bias_sd=1e-3,
-              accel_bias_sd=0.02)
+    kw = {"runs": 3, "seed": 5, "profile": profile, "rate": FS, "outages": outages,
+          "gyro_bias_sd": 1e-3, "accel_bias_sd": 0.02}
     filters = {"true": TRUTH, "white": WHITE}
     seen = []
     serial = outage_study(filters, TRUTH, **kw)
@@ -113,6 +118,10 @@ def test_workers_give_the_serial_result() -> None:
     for name in filters:
         np.testing.assert_array_equal(parallel.max_error[name], serial.max_error[name])
         np.testing.assert_array_equal(parallel.nees[name], serial.nees[name])
+        np.testing.assert_array_equal(parallel.end_nees[name], serial.end_nees[name])
+        np.testing.assert_array_equal(parallel.end_ratio[name], serial.end_ratio[name])
+        np.testing.assert_array_equal(parallel.rejected[name], serial.rejected[name])
+    assert serial.end_nees["true"].shape == (3, 1) and np.all(serial.end_ratio["true"] > 0)
     assert parallel.n_states == serial.n_states
     assert sorted(seen) == [(r, n) for r in range(3) for n in sorted(filters)]
     assert np.all(serial.max_error["true"] > 0)
