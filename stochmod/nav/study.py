@@ -278,7 +278,8 @@ def static_errors(path: str, *, columns: Sequence[str | int] | None = None,
         (case-insensitive), else as the three gyro then the three accelerometer columns by
         sensor kind, each in file order.
     freq : float, optional
-        Sampling frequency, Hz, when the file does not record it.
+        Sampling frequency, Hz: needed when the file does not record it, refused when it
+        differs from the file's by more than 1 %.
     unit, gyro_unit, accel_unit, assume_si
         As ``stochmod calibrate``'s ``--unit``, ``--gyro-unit``, ``--accel-unit``,
         ``--assume-si``.
@@ -297,6 +298,9 @@ def static_errors(path: str, *, columns: Sequence[str | int] | None = None,
     rec = attrs.evolve(rec, units=tuple(c.unit for c in declared), declared=declared).to_si()
     order = _axis_columns(rec, [c.kind for c in declared])
     check_static_magnitudes(rec.data[:, order], [declared[k] for k in order])
+    if freq is not None and rec.freq is not None and abs(freq - rec.freq) > 0.01 * rec.freq:
+        raise InputError(f"{path} is sampled at {rec.freq:.6g} Hz, not at the {freq:g} Hz "
+                         "asked for (the calibrations' rate)")
     fs = freq if freq is not None else rec.freq
     if fs is None:
         raise InputError(f"{path} does not record its sampling frequency: give freq")

@@ -119,6 +119,9 @@ def test_units_are_converted_and_the_calibration_span_excluded(static_file) -> N
         static_errors(str(folder / "bare.npz"))
     again = static_errors(str(folder / "bare.npz"), gyro_unit="deg/s", accel_unit="g")
     np.testing.assert_allclose(again.data, rec.data, rtol=1e-12)
+    # a rate other than the file's (calibrations at another rate) is refused
+    with pytest.raises(InputError, match="sampled at 50 Hz"):
+        static_errors(str(folder / "static.npz"), freq=100.0)
     # deg/s read as rad/s betrays itself by its magnitude, as in calibrate
     with pytest.raises(InputError, match="rad/s"):
         static_errors(str(folder / "bare.npz"), gyro_unit="rad/s", accel_unit="g")
