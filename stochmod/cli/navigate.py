@@ -52,9 +52,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "The report ends with the filter's health: where and how it aligned, the share of "
             "fixes the innovation gate rejected, its recoveries and the NIS per 60 s window. A "
             "solution that fails the health rule (a measurement kind with more than 20 % of "
-            "its updates rejected, or a window's mean NIS after the first 60 s above 3 x its "
-            "99 % chi-square band) is reported as UNTRUSTED on stderr and the command exits "
-            "with status 3 unless --accept-untrusted; DIR/health.json holds the same."
+            "its updates rejected, or a window's mean NIS after the first 60 s above 3 x the "
+            "upper end of its 99 % chi-square band) is reported as UNTRUSTED on stderr and the "
+            "command exits with status 3 unless --accept-untrusted; DIR/health.json holds the "
+            "same."
         ),
     )
     p.add_argument("imu_file", metavar="IMU_FILE", help="IMU CSV (rates or increments)")
