@@ -173,3 +173,28 @@ def test_adis_gyros_get_a_white_noise_density_from_their_file_units() -> None:
         arw = {r["quantity"]: r for r in axis.details["datasheet"]["summary"]}[
             "white noise density (ARW)"]
         assert 1.0 < arw["model"] < 5.0, arw  # deg/sqrt(h)
+
+
+def test_calibrate_command_converts_a_files_units_once(tmp_path) -> None:
+    """An npz in deg/s and g (its ``units`` entry): the CLI reads, declares and converts the
+    units, and the library's own preparation leaves the SI data as they are (a second
+    conversion would put the accelerometers' mean at 9.8 g and refuse the file)."""
+    from stochmod.cli import main
+
+    rng = np.random.default_rng(0)
+    n, sd_deg = 20_000, 0.1
+    gyro = rng.normal(0.0, sd_deg, (n, 3)) + [0.01, -0.02, 0.005]  # deg/s
+    accel = rng.normal(0.0, 0.002, (n, 3)) + [0.0, 0.0, -1.0]  # g
+    path = tmp_path / "imu.npz"
+    np.savez(path, freq=FREQ, units="gyro: deg/s, accel: g",
+             **{f"Gyro_{a}": gyro[:, k] for k, a in enumerate("XYZ")},
+             **{f"Accel_{a}": accel[:, k] for k, a in enumerate("XYZ")})
+    out = tmp_path / "out"
+    assert main(["calibrate", str(path), "--no-plots", "--out", str(out), "--candidates", "WN",
+                 "WN+RW"]) == 0
+    cal = Calibration.read(out / "calibration.json")
+    gx = cal.axis("Gyro_X")
+    assert gx.unit == "rad/s" and gx.model.name == "WN"
+    # white noise of sd 0.1 deg/s per sample at 100 Hz: ARW 0.1 deg/s * sqrt(0.01 s) = 0.6 deg/sqrt(h)
+    arw = {r["quantity"]: r for r in gx.details["datasheet"]["summary"]}["white noise density (ARW)"]
+    assert arw["model"] == pytest.approx(sd_deg * math.sqrt(1.0 / FREQ) * 60.0, rel=0.03)

@@ -100,10 +100,11 @@ def prepare(recording: Recording | Sequence[Recording], *, assume_si: bool = Fal
         if seg.columns != columns:
             raise InputError(f"segments with columns {list(seg.columns)} and {list(columns)}: "
                              "the segments of a recording share their columns")
-        declared = seg.declared or declare_units(seg.columns, seg.units, seg.kinds,
-                                                 assume_si=assume_si)
-        seg = attrs.evolve(seg, units=tuple(c.unit for c in declared), declared=declared)
-        if any(u is not None and parse_unit(u).si != u for u in seg.units):
+        if seg.declared is None:
+            declared = declare_units(seg.columns, seg.units, seg.kinds, assume_si=assume_si)
+            seg = attrs.evolve(seg, units=tuple(c.unit for c in declared), declared=declared)
+        # `units` are the samples' units now (a declared recording may be in SI already)
+        if any(u is not None and parse_unit(u).si != u for u in seg.units or ()):
             seg = seg.to_si()
         check_static_magnitudes(seg.data, seg.declared)
         out.append(seg)
