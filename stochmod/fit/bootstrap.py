@@ -17,10 +17,16 @@ eq. 35, used there for the weighting matrix):
    over workers;
 2. each record's empirical WV is computed with the fit's estimator (wavelet, levels, robust
    options: :func:`stochmod.fit.weighting.estimator_options`);
-3. eq. 20 is solved again with the fit's weighting matrix ``Omega`` held fixed, by one local
-   search of the engine (:func:`stochmod.fit.engine.refine`, Levenberg-Marquardt) from the
-   fit's estimate; replicates whose search fails are left out (counted in
-   :attr:`BootstrapDraws.failed`);
+3. eq. 20 is solved again by one local search of the engine
+   (:func:`stochmod.fit.engine.refine`, Levenberg-Marquardt) from the fit's estimate, with
+   the weighting the fit used: a weighting computed from the WV alone (``"diagonal"``,
+   ``"identity"``, a plugin's without ``needs_signal`` or ``needs_fit``) is computed again
+   from the replicate's WV, so that the bootstrap repeats the estimator, the correlation
+   of a data-dependent ``Omega`` with the residuals included (it biases a deep-level
+   component's estimate and inflates the J statistic); any other ``Omega`` (``"optimal"``,
+   ``"bootstrap"``, a custom matrix) is held fixed at the fit's, as eq. 17 or a nested
+   bootstrap per replicate would cost more than the refit. Replicates whose search fails
+   are left out (counted in :attr:`BootstrapDraws.failed`);
 4. the draws give intervals for every free parameter and physical value, and the J
    statistic of every replicate with the fit's own quadratic form
    (:class:`stochmod.fit.results.JTestForm`) gives the J-test's bootstrap p-value.
@@ -49,7 +55,8 @@ from stochmod.core.tables import format_table
 from stochmod.empirical.wavelet_variance import wvar
 from stochmod.fit.engine import Problem, canonical, full_rank, refine, weighted_svd
 from stochmod.fit.results import GMWMResult, JTest, JTestForm
-from stochmod.fit.weighting import estimator_options
+from stochmod.fit.weighting import check_weighting_matrix, estimator_options
+from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
 
 __all__ = [
     "INTERVALS",
@@ -213,6 +220,7 @@ class _Task:
     omega: np.ndarray
     mask: np.ndarray
     form: JTestForm | None
+    weighting: str | None  # a registered weighting recomputed per replicate, or None: omega
 
 
 @attrs.frozen
@@ -276,12 +284,16 @@ def _run(task: _Task, seeds: Sequence[np.random.SeedSequence], n_physical: int
     freq = float(task.model.freq)
     for b, seed in enumerate(seeds):
         x = task.model.simulate(task.n, np.random.default_rng(seed))
-        nu = np.asarray(wvar(x, freq, wavelet=task.wavelet, levels=task.levels,
-                             **task.estimator).wv[: task.levels], dtype=np.float64)
+        emp = wvar(x, freq, wavelet=task.wavelet, levels=task.levels, **task.estimator)
+        nu = np.asarray(emp.wv[: task.levels], dtype=np.float64)
         if not np.all(nu > 0):
             continue
         try:
-            problem = Problem(task.model, nu, task.omega, task.mask)
+            omega = task.omega
+            if task.weighting is not None:
+                made = get_weighting(task.weighting).matrix(WeightingInput(emp, task.levels))
+                omega = check_weighting_matrix(made.omega, task.levels)
+            problem = Problem(task.model, nu, omega, task.mask)
             res = refine(problem.residuals, problem.jacobian, x0, *_REFIT_TOLERANCE, method="lm")
             if not np.isfinite(problem.safe_objective(res.x)):
                 continue
@@ -305,6 +317,16 @@ def _seeds(rng: int | np.random.SeedSequence, n_boot: int) -> list[np.random.See
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
         return np.random.SeedSequence(int(rng)).spawn(n_boot)
     raise InputError(f"rng must be an integer seed or a numpy SeedSequence, got {rng!r}")
+
+
+def _recomputed(weighting: str) -> str | None:
+    """`weighting` when a replicate can compute it from its WV alone, else None."""
+    if weighting == "custom":
+        return None
+    scheme = get_weighting(weighting)
+    if getattr(scheme, "needs_signal", False) or getattr(scheme, "needs_fit", False):
+        return None
+    return weighting
 
 
 def _check_fit(fit: GMWMResult) -> None:
@@ -346,7 +368,8 @@ def bootstrap_draws(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.
     task = _Task(model=fit.model, n=int(fit.empirical.n), levels=int(fit.levels),
                  wavelet=fit.empirical.wavelet, estimator=estimator_options(fit.empirical),
                  omega=np.asarray(fit.omega, dtype=np.float64),
-                 mask=np.asarray(fit.free_mask, dtype=bool), form=fit.jtest_form)
+                 mask=np.asarray(fit.free_mask, dtype=bool), form=fit.jtest_form,
+                 weighting=_recomputed(fit.weighting))
     parts = [seeds[i : i + chunk] for i in range(0, n_boot, chunk)]
     if executor is None:
         done = [_run(task, part, len(names)) for part in parts]
