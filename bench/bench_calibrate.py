@@ -1,82 +1,109 @@
-"""Benchmark: ``stochmod calibrate`` of the real 6-axis ADIS16405 recording, end to end and by
-stage, against one allantools octave Allan deviation of one axis in the same run.
+"""Benchmark: ``stochmod calibrate`` end to end and by stage, against allantools' octave Allan
+deviation of the six columns of the same recording, in the same run.
 
-Run: ``python bench/bench_calibrate.py [--columns Gyro_X ...] [--no-plots] [--split COLUMN]
+Run: ``python bench/bench_calibrate.py [--skip-adis] [--skip-long] [--hours H] [--split COLUMN]
 [--profile N]``.
-The file (``../shared/data/imudata/adis_16405_imu1.npz``, 1e6 samples per axis at 100 Hz)
-holds gyros in deg/s and accelerometers in g with their turn-on biases; the calibration runs
-on them as they are (the default lattice, ``--scale 1``): a constant bias cancels in every
-wavelet coefficient, so it changes neither the wavelet variance nor the fits, and each column
-is fitted in its own unit.
 
-Part 1, end to end: the CLI as a user runs it (its selection's fits and then its figures on
-one pool of 2 worker processes, ``--jobs 2``), total wall time, the figure step (timed in the
-parent), the CPU time of the parent and the workers (the figure that a loaded machine
-disturbs least) and the peak resident memory of the parent and of the largest worker. Part 2, the stage split: the selection of one
-column (``--split``, default Gyro_X) run serially in this process, with ``wvar`` ("WV"),
-``wv_covariance`` ("covariance", eq. 17) and the rest ("fits / selection") timed by wrapping
-the functions wherever stochmod's modules hold them; ``--profile N`` profiles that same serial
-run (which slows it) and prints the N entries with the most internal time. One run each (they
-are long); the oadev reference is the best of 3.
+Part 1, the real file (``../shared/data/imudata/adis_16405_imu1.npz``, 6 columns x 1e6
+samples at 100 Hz): ``stochmod calibrate FILE --triad --report --export kalibr`` as a user runs
+it (fits and figures on 2 worker processes). The npz's ``units`` entry (gyros in deg/s,
+accelerometers in g) is read and the columns are converted to SI before the selection. Printed:
+the total wall time and its ratio to the peer, the parent's stages (timed by wrapping the
+functions wherever stochmod's modules hold them: the WV, the eq. 17 covariance on its thread
+beside the fits, the datasheet's Allan reading, the figures, the report), the CPU time of the
+parent and the workers (the figure that a loaded machine disturbs least) and the peak resident
+memory of the parent and of the largest worker.
+
+Part 2, a long record: 8 h at 400 Hz x 6 axes (1.152e7 samples a column), GM + white noise +
+random walk per axis, simulated here in SI with its units declared, calibrated by the library
+(``stochmod.calibrate``, no figures) in a fresh process, so that its peak resident memory is
+its own: printed as the peak over the resident memory before the call (the input already
+resident), against the input array's size. Targets: under 30 s and under 1.5x the input.
+
+Part 3, the stage split: the selection of one column (``--split``, default Gyro_X, in SI) run
+serially in this process, WV / covariance / fits; ``--profile N`` profiles it (which slows it)
+and prints the N entries with the most internal time.
+
+The peer, allantools ``oadev(taus="octave")`` of the file's six columns, is the best of 2. One
+run of each part (they are long): on a shared machine times are noisy, the ratios less so.
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import cProfile
 import functools
 import io
+import json
 import pstats
 import resource
+import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-
-import concurrent.futures
 
 import allantools
 import numpy as np
 from _timing import best_of
 
 import stochmod.cli.calibrate as cli_calibrate
+from stochmod.cli import _calibrate_outputs as cli_outputs
 from stochmod.cli import main as cli_main
 from stochmod.empirical.wavelet_variance import wvar
 from stochmod.empirical.wv_covariance import wv_covariance
+from stochmod.output.datasheet import datasheet_reading
 
 FILE = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "imudata" / "adis_16405_imu1.npz"
+COLUMNS = ("Gyro_X", "Gyro_Y", "Gyro_Z", "Accel_X", "Accel_Y", "Accel_Z")
+LONG_FREQ = 400.0
+LONG_COLUMNS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 
 
 class StageClock:
-    """Wall-clock seconds per stage; a stage entered inside another counts for the outer one."""
+    """Wall-clock seconds per stage; a stage entered inside another (on the same thread) counts
+    for the outer one. Stages on other threads (the covariance beside the fits) overlap."""
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
-        self.active: str | None = None
+        self.local = threading.local()
+        self.lock = threading.Lock()
 
     def wrap(self, fn: Callable, stage: str) -> Callable:
         @functools.wraps(fn)
         def timed(*args, **kwargs):
-            if self.active is not None:
+            if getattr(self.local, "active", None) is not None:
                 return fn(*args, **kwargs)
-            self.active = stage
+            self.local.active = stage
             t0 = time.perf_counter()
             try:
                 return fn(*args, **kwargs)
             finally:
-                self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - t0
-                self.active = None
+                with self.lock:
+                    self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - t0
+                self.local.active = None
 
         return timed
 
 
 def install(clock: StageClock) -> None:
-    """Replace wvar, wv_covariance and the CLI's figure step by timed wrappers in every
-    loaded stochmod module that holds them (robust to where the fit code imports them)."""
+    """Replace the timed functions by wrappers in every loaded stochmod module that holds them
+    (robust to where the code imports them)."""
+    # import every module the run will use, so that the wrappers reach them all
+    import stochmod.fit.selection
+    import stochmod.fit.validation
+    import stochmod.fit.weighting
+    import stochmod.workflows.calibrate  # noqa: F401
+
     targets = {id(wvar): clock.wrap(wvar, "WV"),
-               id(wv_covariance): clock.wrap(wv_covariance, "covariance"),
-               id(cli_calibrate._figures): clock.wrap(cli_calibrate._figures, "figures")}
+               id(wv_covariance): clock.wrap(wv_covariance, "covariance (eq. 17, own thread)"),
+               id(datasheet_reading): clock.wrap(datasheet_reading, "datasheet Allan reading"),
+               id(cli_calibrate._figures): clock.wrap(cli_calibrate._figures, "figures"),
+               id(cli_outputs.write_report_for): clock.wrap(cli_outputs.write_report_for,
+                                                            "report")}
     for name, module in list(sys.modules.items()):
         if not name.startswith("stochmod") or module is None:
             continue
@@ -92,33 +119,48 @@ class InlineExecutor(concurrent.futures.Executor):
         future = concurrent.futures.Future()
         try:
             future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # handed to the caller through the future
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller through the future
             future.set_exception(exc)
         return future
 
 
 def cpu_seconds() -> float:
     """User + system CPU seconds of this process and of its finished child processes (the
-    selection's pool workers are joined, hence counted, when calibrate returns)."""
+    pool workers are joined, hence counted, when calibrate returns)."""
     return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
 
 
-def rss_mb() -> float:
-    """Current resident set size, MB (Linux /proc)."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize() / 2**20
+def _status_mb(field: str) -> float:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
 
 
-def end_to_end(args: argparse.Namespace, clock: StageClock, t_at: float, n: int, nbytes: int) -> None:
-    """Part 1: the CLI on every requested column, as a user runs it."""
-    argv = ["calibrate", str(FILE)]
-    for c in args.columns or []:
-        argv += ["--column", c]
-    if args.no_plots:
-        argv.append("--no-plots")
-    base = rss_mb()
+def reset_peak() -> None:
+    """Reset this process's peak resident memory (VmHWM) to its current resident memory."""
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+
+
+def peer() -> float:
+    """Seconds of allantools' octave oadev of the file's six columns (best of 2)."""
+    with np.load(FILE) as z:
+        cols = [np.asarray(z[c], dtype=np.float64) for c in COLUMNS]
+        freq = float(z["freq"])
+    return best_of(lambda: [allantools.oadev(c, rate=freq, data_type="freq", taus="octave")
+                            for c in cols], 2)
+
+
+def adis(clock: StageClock, t_at: float) -> None:
+    """Part 1: the CLI on the real file, as a user runs it."""
+    argv = ["calibrate", str(FILE), "--triad", "--report", "--export", "kalibr"]
+    reset_peak()
+    base = _status_mb("VmRSS")
     cpu0 = cpu_seconds()
+    clock.seconds.clear()
     with tempfile.TemporaryDirectory() as out:
         sink = io.StringIO()
         t0 = time.perf_counter()
@@ -131,29 +173,94 @@ def end_to_end(args: argparse.Namespace, clock: StageClock, t_at: float, n: int,
     cpu = cpu_seconds() - cpu0
     if status != 0:
         sys.exit(f"stochmod calibrate exited with status {status}")
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    peak = _status_mb("VmHWM")
     worker = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
-    figures = clock.seconds.pop("figures", 0.0)
-    k = len(args.columns or []) or 6
-    print(f"stochmod calibrate {FILE.name}: {k} column(s) x {n:,} samples at 100 Hz, default "
-          f"lattice{', no figures' if args.no_plots else ''} (fits and figures on 2 worker processes)")
-    print(f"{'stage':24s} {'seconds':>9s} {'share':>7s} {'x oadev':>9s}")
-    for stage, sec in [("select + report", total - figures), ("figures", figures),
-                       ("total", total)]:
-        print(f"{stage:24s} {sec:9.2f} {sec / total:7.1%} {sec / t_at:9.1f}")
-    print(f"CPU time, parent and workers: {cpu:.1f} s (x oadev {cpu / t_at:.1f}); on a machine "
-          f"nobody else uses, 2 cores need at least {cpu / 2:.1f} s of wall time for it")
-    print(f"peak resident memory: parent {peak:.0f} MB ({peak - base:+.0f} MB over the "
-          f"{base:.0f} MB before the run), largest worker {worker:.0f} MB; the data: "
-          f"{k} x {nbytes / 2**20:.0f} MB")
+    print(f"1. stochmod calibrate {FILE.name} --triad --report --export kalibr: 6 columns x 1e6 "
+          "samples at 100 Hz (fits and figures on 2 worker processes)")
+    print(f"   {'stage (parent)':34s} {'seconds':>9s} {'share':>7s} {'x peer':>8s}")
+    s = clock.seconds
+    rest = total - sum(v for k, v in s.items() if "own thread" not in k)
+    for stage, sec in [*sorted(s.items()), ("selection and the rest", rest), ("total", total)]:
+        print(f"   {stage:34s} {sec:9.2f} {sec / total:7.1%} {sec / t_at:8.2f}")
+    print(f"   CPU time, parent and workers: {cpu:.1f} s ({cpu / t_at:.1f}x the peer's wall time)")
+    print(f"   peak resident memory: parent {peak:.0f} MB ({peak - base:+.0f} MB over the {base:.0f} "
+          f"MB before the run), largest worker {worker:.0f} MB")
+    print(f"   RATIO total / peer: {total / t_at:.1f}x (target 10x)")
+
+
+def long_record(hours: float, seed: int = 0) -> np.ndarray:
+    """`hours` at 400 Hz x 6 axes in SI: GM (Tc 60 s) + white noise + random walk per axis,
+    float64, C order (n, 6); built a column at a time so that no temporary the size of the
+    array is resident."""
+    from scipy.signal import lfilter
+
+    n = round(hours * 3600 * LONG_FREQ)
+    rng = np.random.default_rng(seed)
+    data = np.empty((n, 6))
+    dt = 1.0 / LONG_FREQ
+    beta = np.exp(-dt / 60.0)
+    for k in range(6):
+        s = 1e-3 if k < 3 else 2e-3  # rad/s, m/s^2 per sample
+        col = lfilter([np.sqrt(1 - beta**2) * 0.2 * s], [1.0, -beta], rng.standard_normal(n))
+        col += np.cumsum(rng.standard_normal(n)) * (1e-3 * s)
+        col += rng.standard_normal(n) * s
+        data[:, k] = col
+        del col
+    return data
+
+
+def long_child(hours: float) -> None:
+    """Part 2 in this (fresh) process; prints one JSON line."""
+    import stochmod
+    from stochmod.io.recording import Recording
+
+    data = long_record(hours)
+    rec = Recording(data, LONG_COLUMNS, LONG_FREQ, units=("rad/s",) * 3 + ("m/s^2",) * 3)
+    clock = StageClock()
+    install(clock)
+    reset_peak()
+    base = _status_mb("VmRSS")
+    cpu0 = cpu_seconds()
+    t0 = time.perf_counter()
+    cal = stochmod.calibrate(rec)
+    total = time.perf_counter() - t0
+    print(json.dumps({"seconds": total, "cpu": cpu_seconds() - cpu0, "peak": _status_mb("VmHWM"),
+                      "base": base, "nbytes": data.nbytes, "n": data.shape[0],
+                      "worker": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,
+                      "stages": clock.seconds,
+                      "models": {a.column: a.model.name for a in cal.axes}}))
+
+
+def long_part(hours: float, t_at: float) -> None:
+    """Part 2: the long record in a fresh process."""
+    proc = subprocess.run([sys.executable, __file__, "--long-child", str(hours)],
+                          check=False, capture_output=True, text=True, cwd=Path(__file__).parent)
+    if proc.returncode != 0:
+        sys.exit(f"the long-record run failed:\n{proc.stderr}")
+    r = json.loads(proc.stdout.strip().splitlines()[-1])
+    mb = r["nbytes"] / 2**20
+    extra = r["peak"] - r["base"]
+    print(f"\n2. stochmod.calibrate of {hours:g} h at {LONG_FREQ:g} Hz x 6 axes ({r['n']:,} samples "
+          f"a column, {mb:.0f} MB of input, SI, no figures), in a fresh process")
+    for stage, sec in sorted(r["stages"].items()):
+        print(f"   {stage:34s} {sec:9.2f} s")
+    print(f"   total {r['seconds']:.1f} s ({r['seconds'] / t_at:.1f}x the peer; target 30 s), "
+          f"CPU parent and workers {r['cpu']:.1f} s")
+    print(f"   peak resident memory {r['peak']:.0f} MB, {extra:+.0f} MB over the {r['base']:.0f} MB "
+          f"before the call: {extra / mb:.2f}x the input (target 1.5x); largest worker "
+          f"{r['worker']:.0f} MB")
+    print(f"   models: {r['models']}")
 
 
 def split(args: argparse.Namespace, clock: StageClock, t_at: float) -> None:
-    """Part 2: one column's selection, serial, by stage (and profiled with --profile)."""
+    """Part 3: one column's selection, serial, by stage (and profiled with --profile)."""
+    from stochmod.core.units import convert
     from stochmod.fit.selection import select
 
     with np.load(FILE) as z:
         x = np.asarray(z[args.split], dtype=np.float64)
+    unit = "deg/s" if args.split.lower().startswith("gyro") else "g"
+    x = np.asarray(convert(x, unit, "rad/s" if unit == "deg/s" else "m/s^2"), dtype=np.float64)
     clock.seconds.clear()
     prof = cProfile.Profile() if args.profile else None
     t0 = time.perf_counter()
@@ -163,12 +270,13 @@ def split(args: argparse.Namespace, clock: StageClock, t_at: float) -> None:
         prof.runcall(select, x[:, None], 100.0, names=[args.split], executor=InlineExecutor())
     total = time.perf_counter() - t0
     s = clock.seconds
-    print(f"\nstage split: select() on {args.split} alone, serial in one process"
+    cov = s.get("covariance (eq. 17, own thread)", 0.0)
+    print(f"\n3. stage split: select() on {args.split} alone, serial in one process"
           f"{' (profiled: slower)' if prof else ''}")
-    print(f"{'stage':24s} {'seconds':>9s} {'share':>7s} {'x oadev':>9s}")
-    for stage, sec in [("WV", s.get("WV", 0.0)), ("covariance (eq. 17)", s.get("covariance", 0.0)),
-                       ("fits / selection", total - sum(s.values())), ("total", total)]:
-        print(f"{stage:24s} {sec:9.2f} {sec / total:7.1%} {sec / t_at:9.1f}")
+    print(f"   {'stage':34s} {'seconds':>9s} {'share':>7s} {'x peer':>8s}")
+    for stage, sec in [("WV", s.get("WV", 0.0)), ("covariance (eq. 17)", cov),
+                       ("fits / selection", total - s.get("WV", 0.0) - cov), ("total", total)]:
+        print(f"   {stage:34s} {sec:9.2f} {sec / total:7.1%} {sec / t_at:8.2f}")
     if prof is not None:
         text = io.StringIO()
         pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(args.profile)
@@ -177,31 +285,33 @@ def split(args: argparse.Namespace, clock: StageClock, t_at: float) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--columns", nargs="*", default=None, help="columns (default: all six)")
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--skip-adis", action="store_true", help="no part 1")
+    p.add_argument("--skip-long", action="store_true", help="no part 2")
+    p.add_argument("--skip-split", action="store_true", help="no part 3")
+    p.add_argument("--hours", type=float, default=8.0, help="length of part 2's record (default 8)")
     p.add_argument("--split", default="Gyro_X", metavar="COLUMN",
                    help="the column of the serial stage split (default Gyro_X)")
-    p.add_argument("--skip-end-to-end", action="store_true", help="part 2 only")
     p.add_argument("--profile", type=int, default=0, metavar="N")
+    p.add_argument("--long-child", type=float, default=None, help=argparse.SUPPRESS)
     args = p.parse_args()
+    if args.long_child is not None:
+        long_child(args.long_child)
+        return
     if not FILE.is_file():
         sys.exit(f"the recording {FILE} is absent")
-    with np.load(FILE) as z:
-        gyro_x = np.asarray(z["Gyro_X"], dtype=np.float64)
-        freq = float(z["freq"])
-    t_at = best_of(lambda: allantools.oadev(gyro_x, rate=freq, data_type="freq", taus="octave"), 3)
-
-    # import every module the run will use, so that the wrappers reach them all
-    import stochmod.fit.selection  # noqa: F401
-    import stochmod.fit.weighting  # noqa: F401
-
+    t_at = peer()
+    print(f"peer: allantools oadev(taus='octave') of the file's six columns, {t_at:.2f} s "
+          "(the unit of 'x peer')\n")
+    if not args.skip_long:  # first: a fresh process, before this one holds the file
+        long_part(args.hours, t_at)
+        print()
     clock = StageClock()
     install(clock)
-    if not args.skip_end_to_end:
-        end_to_end(args, clock, t_at, gyro_x.size, gyro_x.nbytes)
-    split(args, clock, t_at)
-    print(f"\nallantools oadev(taus='octave') of Gyro_X: {t_at:.3f} s (the unit of 'x oadev'); "
-          "one run on a shared machine: times are noisy, the ratios less so")
+    if not args.skip_adis:
+        adis(clock, t_at)
+    if not args.skip_split:
+        split(args, clock, t_at)
+    print("\none run each on a shared machine: times are noisy, the ratios less so")
 
 
 if __name__ == "__main__":
