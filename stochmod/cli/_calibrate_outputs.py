@@ -88,7 +88,9 @@ def write_exports_for(args: argparse.Namespace, source: Calibration | list[Selec
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
                      title: str, out: Path) -> list[Path]:
     """``OUT/report.html`` (with ``--report``) of the calibration `run_`: the summary across
-    axes first, with each axis's exported N and K when `exported` holds files."""
+    axes first, with each axis's exported N and K when `exported` holds files. Each axis's
+    bands compare WVs only, on the simulations its figure drew when there is one
+    (:func:`stochmod.fit.validation.keep_simulated`)."""
     if not args.report:
         return []
     from stochmod.fit.validation import validate
@@ -99,7 +101,8 @@ def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: l
     axes = []
     for k, (sel, fin) in enumerate(zip(run_.selections, run_.finals)):
         sheet = run_.datasheets[sel.column]
-        bands = validate(sel.best, data[:, k], R=args.n_sim, rng=args.seed)
+        # the WV bands (the report shows no PSD), from the figure's simulations when drawn
+        bands = validate(sel.best, data[:, k], R=args.n_sim, rng=args.seed, psd=False)
         noise = (noise_terms(sel.best, sheet.unit, column=sel.column, horizon=args.export_horizon,
                              record_seconds=run_.calibration.record_seconds)
                  if exported else None)

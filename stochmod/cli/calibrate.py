@@ -148,6 +148,16 @@ def _simulations(fit: GMWMResult, n_sim: int, seed: int, start: int, stop: int) 
     return simulated_wv(fit, n_sim, seed, indices=slice(start, stop))
 
 
+def _keep(fit: GMWMResult, seed: int, simulated: np.ndarray) -> np.ndarray:
+    """`simulated`, kept for the report's bands of the same fit
+    (:func:`stochmod.fit.validation.keep_simulated`: its :func:`~stochmod.fit.validation.
+    validate` draws the same series)."""
+    from stochmod.fit.validation import keep_simulated
+
+    keep_simulated(fit.model, fit.empirical.n, fit.empirical.wavelet, seed, simulated)
+    return simulated
+
+
 def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
              units: dict[str, str], executor: Any = None) -> list[Path]:
     """The columns' figures, calibrate's second largest stage after the fits: each simulates
@@ -157,7 +167,9 @@ def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
     series, the columns with the most components first (the longest tasks first balance the
     two workers best), and this process, which would otherwise wait, draws each figure as
     soon as its simulations are in; the figures are the same as drawn in one piece (series i
-    draws from the i-th child of `seed` however the series are split).
+    draws from the i-th child of `seed` however the series are split). The simulated WVs are
+    kept for the report's bands (:func:`_keep`), which are the same simulations of the same
+    fit.
     """
     import importlib.util
 
@@ -166,10 +178,14 @@ def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
     jobs = [(sel.best, out / f"{_filename(sel.column)}.png", n_sim, seed,
              f"{sel.column}: {sel.best.model.name}", units.get(sel.column, "u"))
             for sel in results]
-    if executor is None:
-        return [_figure(*job) for job in jobs]
-    if isinstance(executor, SerialExecutor) or n_sim == 0:  # nothing to overlap
-        return [f.result() for f in [executor.submit(_figure, *job) for job in jobs]]
+    if executor is None or isinstance(executor, SerialExecutor) or n_sim == 0:  # no overlap
+        def call(fn: Any, *args: Any, **kwargs: Any) -> Any:
+            return (fn(*args, **kwargs) if executor is None
+                    else executor.submit(fn, *args, **kwargs).result())
+
+        return [call(_figure, *job, simulated=None if n_sim == 0 else _keep(
+                    sel.best, seed, call(_simulations, sel.best, n_sim, seed, 0, n_sim)))
+                for sel, job in zip(results, jobs)]
     spans = [(a, min(a + SIMULATIONS_PER_TASK, n_sim)) for a in range(0, n_sim, SIMULATIONS_PER_TASK)]
     longest_first = sorted(range(len(jobs)), key=lambda k: -len(results[k].best.model.processes))
     futures = {executor.submit(_simulations, results[k].best, n_sim, seed, a, b): (k, i)
@@ -181,7 +197,8 @@ def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
             k, i = futures[future]
             parts[k][i] = future.result()
             if len(parts[k]) == len(spans):
-                _figure(*jobs[k], simulated=np.vstack([parts[k][i] for i in range(len(spans))]))
+                simulated = np.vstack([parts[k][i] for i in range(len(spans))])
+                _figure(*jobs[k], simulated=_keep(results[k].best, seed, simulated))
     except BaseException:
         for future in futures:
             future.cancel()
