@@ -63,6 +63,7 @@ from scipy.stats import chi2, kstest
 
 from stochmod.core.checks import check_positive_int
 from stochmod.core.errors import EstimationError, InputError, SpecError, StochmodError
+from stochmod.core.jsonable import to_jsonable
 from stochmod.core.model import Model
 from stochmod.core.params import get_domain
 from stochmod.core.tables import format_table
@@ -608,17 +609,17 @@ class DriftPrediction:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        """JSON-ready form."""
+        """JSON-ready form (strict JSON: non-finite values converted)."""
         ok = np.isfinite(self.draws[:, -1]) if self.draws.size else np.zeros(0, bool)
         band = {} if not ok.any() else {
             f"p{q}": self.percentile(q).tolist() for q in (5, 50, 95)}
-        return {"conditions": {**attrs.asdict(self.conditions),
+        return to_jsonable({"conditions": {**attrs.asdict(self.conditions),
                                "profile": [attrs.asdict(s) for s in self.conditions.profile]},
                 "time": self.time.tolist(), "sigma": self.sigma.tolist(),
                 "sigma_ne": self.sigma_ne.tolist(), "band": band,
                 "n_draws": int(self.draws.shape[0]), "n_failed": self.n_failed,
                 "settle_change": self.settle_change, "random_walks": list(self.random_walks),
-                "spreads": [attrs.asdict(s) for s in self.spreads]}
+                "spreads": [attrs.asdict(s) for s in self.spreads]})
 
     def plot(self, ax: object = None) -> object:
         """Nominal sigma and the 5-95 % band against the time in the outage (matplotlib)."""

@@ -21,7 +21,7 @@ from stochmod.nav.drift import (
     parameter_spreads,
     predicted_drift,
 )
-from stochmod.nav.emulate import AXES, Segment
+from stochmod.nav.emulate import Segment
 
 RATE = 20.0  # Hz: the emulated drives run at the models' rate; low keeps the test fast
 
@@ -137,4 +137,6 @@ def test_cli_drift(tmp_path, capsys) -> None:
                  "--draws", "0", "--check", "3", "--motion", "straight"]) == 0
     assert "emulated drive" in capsys.readouterr().out
     assert main(["drift", "--calibration", str(tmp_path / "none.json")]) == 2
-    assert set(AXES) <= set(_calibration().columns)
+    assert main(["drift", "--calibration", str(path), "--outage", "5", "--settle", "10",
+                 "--draws", "2", "--json"]) == 0
+    assert '"band"' in capsys.readouterr().out
