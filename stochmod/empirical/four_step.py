@@ -36,7 +36,7 @@ from scipy import fft
 
 from stochmod.empirical import spectrum_jit
 
-__all__ = ["BLOCK", "FOUR_STEP_MIN", "Plan", "plan", "power_spectrum", "transform_shape"]
+__all__ = ["BLOCK", "FOUR_STEP_MIN", "Plan", "plan", "power_spectrum", "transform", "transform_shape"]
 
 #: Columns per block of the first pass: ``n1 x BLOCK`` complex64 (512 kB at n1 = 1024) stay in
 #: the L2 cache between the block's transforms and its twiddle multiply.
@@ -120,6 +120,12 @@ def power_spectrum(buf: np.ndarray, tables: Plan, out: np.ndarray) -> None:
     """``out = |X|^2``, the power spectrum of the real float32 series `buf` (``2 n1 n2``
     samples, overwritten) at its ``n1 n2 + 1`` frequencies from 0 to Nyquist, in the order of
     :func:`~stochmod.empirical.spectrum_jit.split_power` (the natural order if ``n1 = 1``)."""
+    spectrum_jit.split_power(transform(buf, tables), tables.rows, tables.cols, out)
+
+
+def transform(buf: np.ndarray, tables: Plan) -> np.ndarray:
+    """The four-step transform of the sample pairs of the real float32 series `buf`, in place:
+    the complex ``(n1, n2)`` view of `buf` in the layout ``C[k1, k2] = Z[k1 + n1 k2]``."""
     n1, n2 = tables.n1, tables.n2
     a = buf.view(np.complex64).reshape(n1, n2)
     if n1 > 1:
@@ -128,4 +134,4 @@ def power_spectrum(buf: np.ndarray, tables: Plan, out: np.ndarray) -> None:
             _in_place(fft.fft(block, axis=0, overwrite_x=True), block)
             spectrum_jit.twiddle_block(block, b, tables.low, tables.high)
     _in_place(fft.fft(a, axis=1, overwrite_x=True), a)
-    spectrum_jit.split_power(a, tables.rows, tables.cols, out)
+    return a

@@ -19,8 +19,9 @@ complex one of half the length; Press et al., Numerical Recipes, 2nd ed., sec. 1
 ``(0, -k2 mod n2)`` in row 0, and writes the powers in that same order, which the Gram matrix
 of eq. 17 does not see (it sums over all frequencies); with ``n1 = 1`` it is the natural order.
 :func:`twiddle_block` is the four-step's multiply between its two passes of short transforms;
-:func:`power_gram` the Gram matrix of the levels' powers. One pass reads each pair once and
-writes both powers. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
+:func:`power_gram` the Gram matrix of the levels' powers, :func:`split_power_cross` one level's
+row of it against stored levels straight from its transform, without storing its powers. One
+pass reads each pair once and writes both powers. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
 ``STOCHMOD_DISABLE_JIT=1`` the same functions run as plain Python.
 """
 
@@ -30,7 +31,7 @@ import numpy as np
 
 from stochmod.core.jit import compiled
 
-__all__ = ["power_gram", "split_power", "twiddle_block"]
+__all__ = ["power_gram", "split_power", "split_power_cross", "twiddle_block"]
 
 
 @compiled
@@ -144,3 +145,48 @@ def power_gram(powers: np.ndarray, width: int) -> np.ndarray:  # pragma: no cove
         for b in range(a):
             gram[b, a] = gram[a, b]
     return gram
+
+
+
+@compiled
+def _weigh(p: float, stored: np.ndarray, i: int, acc: np.ndarray) -> None:  # pragma: no cover
+    """``acc[a] += p stored[a, i]`` for every row a, `p` first rounded to float32 (the value a
+    float32 spectrum holds)."""
+    q = np.float64(np.float32(p))
+    for a in range(stored.shape[0]):
+        acc[a] += q * np.float64(stored[a, i])
+
+
+@compiled
+def split_power_cross(c: np.ndarray, rows: np.ndarray, cols: np.ndarray, stored: np.ndarray,
+                      acc: np.ndarray) -> tuple[float, float]:  # pragma: no cover
+    """:func:`split_power` of `c` multiplied with the float32 spectra `stored` (B, H + 1) in
+    the same layout without being stored: ``acc[a] += sum_i P(i) stored[a, i]``, each power
+    rounded to float32 first, in double precision. Returns the powers at ``k = 0`` and at the
+    Nyquist frequency (the ends of the half spectrum)."""
+    n1, n2 = c.shape
+    h = n1 * n2
+    first, last = _pair(c[0, 0], c[0, 0], 1.0, 0.0)
+    _weigh(first, stored, 0, acc)
+    _weigh(last, stored, h, acc)
+    for k2 in range(1, n2 // 2 + 1):
+        p, q = _pair(c[0, k2], c[0, n2 - k2], np.float64(cols[k2, 0]), np.float64(cols[k2, 1]))
+        if k2 != n2 - k2:
+            _weigh(p, stored, k2, acc)
+        _weigh(q, stored, n2 - k2, acc)
+    for k1 in range(1, n1 // 2 + 1):
+        q1 = n1 - k1
+        rc = np.float64(rows[k1, 0])
+        rs = np.float64(rows[k1, 1])
+        row, mirror = c[k1], c[q1]
+        stop = n2 if k1 < q1 else (n2 + 1) // 2
+        for k2 in range(stop):
+            cc = np.float64(cols[k2, 0])
+            cs = np.float64(cols[k2, 1])
+            p, q = _pair(row[k2], mirror[n2 - 1 - k2], rc * cc - rs * cs, rc * cs + rs * cc)
+            i, i_mirror = k1 * n2 + k2, q1 * n2 + n2 - 1 - k2
+            if i != i_mirror:
+                _weigh(p, stored, i, acc)
+            _weigh(q, stored, i_mirror, acc)
+    return np.float64(np.float32(first)), np.float64(np.float32(last))
+

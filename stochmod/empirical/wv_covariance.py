@@ -23,15 +23,20 @@ from numpy.typing import ArrayLike
 
 from stochmod.core.checks import as_signal, check_positive_int
 from stochmod.core.errors import InputError
-from stochmod.empirical import four_step, spectrum_jit
 from stochmod.core.filters import check_level, default_levels, modwt_filters
+from stochmod.empirical import four_step, spectrum_jit
 from stochmod.empirical.modwt import pyramid
 
-__all__ = ["THREADS_VARIABLE", "default_workers", "wv_covariance"]
+__all__ = ["SPECTRA_BYTES", "THREADS_VARIABLE", "default_workers", "wv_covariance"]
 
 #: Environment variable that sets the default number of threads of :func:`wv_covariance`.
 THREADS_VARIABLE = "STOCHMOD_FFT_THREADS"
 _GRAM_BLOCK = 128  # frequencies per block of the compiled Gram (J x 128 float64 in L1)
+#: Bytes of float32 level spectra held at once (384 MiB). Above it (long records: 22 levels
+#: of 46 MB at 1.15e7 samples, 8 h at 400 Hz) the levels are taken in groups that fit
+#: (:func:`_grouped_gram`): less memory for more transforms. Below about 4e6 samples all
+#: levels fit.
+SPECTRA_BYTES = 384 << 20
 
 
 def default_workers() -> int:
@@ -114,6 +119,92 @@ def _power_spectra(
     return powers, scale, sizes
 
 
+def _grouped_gram(
+    x: np.ndarray, levels: int, wavelet: str, shape: tuple[int, int], group: int,
+    clip: np.ndarray | None = None, workers: int = 1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_half_spectrum_gram` of :func:`_power_spectra`, holding at most `group` level
+    spectra at once: returns ``(gram, scale, sizes)``.
+
+    The levels are taken in groups of `group`, in order. For each group, one run of the
+    pyramid transforms its levels and keeps their spectra, which give the group's block of
+    the Gram matrix, and then transforms each deeper level and multiplies its powers with the
+    kept ones straight from its transform (its entries against the group,
+    :func:`~stochmod.empirical.spectrum_jit.split_power_cross`, no spectrum stored); the next
+    group runs the pyramid again from level 1 without transforming the levels before it. For
+    J levels this is ``J + (J - g) + (J - 2 g) + ...`` transforms instead of J (33 instead of
+    22 for two groups of 11), in about ``group / J`` of the spectra's memory. The sums are the
+    same as :func:`_half_spectrum_gram`'s, those against the deeper levels in another order
+    (the same to float rounding).
+    """
+    n = x.size
+    H = shape[0] * shape[1]
+    gram = np.zeros((levels, levels))
+    ends = np.zeros((levels, 2))
+    scale = np.zeros(levels)
+    sizes = np.empty(levels, dtype=np.int64)
+    coef = np.empty(n)
+    slots = max(1, workers)
+    bufs = [np.empty(2 * H, dtype=np.float32) for _ in range(slots)]
+    power = _level_power(shape)
+    tables = four_step.plan(*shape)
+    with (concurrent.futures.ThreadPoolExecutor(workers) if workers > 1
+          else contextlib.nullcontext()) as pool:
+        for start in range(0, levels, group):
+            stop = min(start + group, levels)
+            kept = np.empty((stop - start, H + 1), dtype=np.float32)
+            pending: collections.deque[concurrent.futures.Future[None]] = collections.deque()
+            free = collections.deque(range(slots))
+
+            def streamed(k: int, j: int, kept: np.ndarray = kept, start: int = start,
+                         stop: int = stop) -> int:
+                cross = np.zeros(stop - start)
+                ends[j - 1] = spectrum_jit.split_power_cross(
+                    four_step.transform(bufs[k], tables), tables.rows, tables.cols, kept, cross)
+                gram[j - 1, start:stop] = cross
+                gram[start:stop, j - 1] = cross
+                return k
+
+            def stored(k: int, j: int, kept: np.ndarray = kept, start: int = start) -> int:
+                power(bufs[k], kept[j - 1 - start])
+                return k
+
+            for j, sumsq, m in pyramid(x, levels, wavelet, coef):
+                if j <= start:
+                    continue
+                if clip is not None:
+                    w = np.clip(coef[:m], -clip[j - 1], clip[j - 1], out=coef[:m])
+                    sumsq = float(np.dot(w, w))
+                ms = sumsq / m
+                scale[j - 1], sizes[j - 1] = ms, m
+                if j == stop + 1:  # the group is complete: its block, then the deeper levels
+                    while pending:
+                        free.append(pending.popleft().result())
+                    block = spectrum_jit.power_gram(kept, _GRAM_BLOCK)
+                    gram[start:stop, start:stop] = block
+                    ends[start:stop] = kept[:, [0, -1]]
+                if not free:
+                    free.append(pending.popleft().result())
+                k = free.popleft()
+                buf = bufs[k]
+                np.multiply(coef[:m], 1.0 / np.sqrt(ms) if ms > 0 else 0.0, out=buf[:m])
+                buf[m:] = 0.0
+                task = stored if j <= stop else streamed
+                if pool is None:
+                    free.append(task(k, j))
+                else:
+                    pending.append(pool.submit(task, k, j))
+            while pending:
+                free.append(pending.popleft().result())
+            if stop == levels:  # the last group streams nothing
+                gram[start:stop, start:stop] = spectrum_jit.power_gram(kept, _GRAM_BLOCK)
+                ends[start:stop] = kept[:, [0, -1]]
+            del kept, stored, streamed  # the group's spectra (the tasks held them)
+    gram *= 2.0  # the conjugate half
+    gram -= ends @ ends.T  # f = 0 and nfft / 2 appear once in the full spectrum
+    return gram, scale, sizes
+
+
 def _half_spectrum_gram(powers: np.ndarray, nfft: int) -> np.ndarray:
     """``G_ab = sum_f P_a(f) P_b(f)`` over all ``nfft`` frequencies, from the half spectrum.
 
@@ -170,9 +261,14 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
     own sampling error of order 1/sqrt(M_j)) on RMS-normalised series, which halves their
     time and memory; the products and sums are in double precision. Each level's transform
     is a four-step one of short transforms in cache (:mod:`stochmod.empirical.four_step`),
-    whose frequencies come out in another order: the Gram matrix does not depend on it. Memory: the J float32 half spectra, about 4 J N bytes,
-    plus ``workers + 1`` float32 FFT buffers of 8 N bytes, two float64 copies of `x` and the
-    four-step's tables (0.6 MB at N = 2^20).
+    whose frequencies come out in another order: the Gram matrix does not depend on it.
+    Memory: the J float32 half spectra, about 4 J N bytes, plus ``workers + 1`` float32 FFT
+    buffers of 8 N bytes, two float64 copies of `x` and the four-step's tables (0.6 MB at
+    N = 2^20). When the spectra would exceed :data:`SPECTRA_BYTES`, the levels are taken in
+    groups of spectra that fit it, each group's pass transforming the deeper levels again
+    (three groups at 8 h of 400 Hz data: 42 transforms instead of 22, 1.6x the CPU time, in
+    0.6x the memory); ``workers`` FFT buffers then. The result is the same to float
+    rounding either way.
     """
     x = as_signal(x, name="x", min_length=2)
     modwt_filters(wavelet)
@@ -186,8 +282,15 @@ def wv_covariance(x: ArrayLike, levels: int | None = None, wavelet: str = "haar"
         if bounds.shape != (J,) or not np.all(bounds > 0):
             raise InputError(f"clip must hold {J} positive bounds (one per level), got {bounds!r}")
     workers = default_workers() if workers is None else check_positive_int(workers, name="workers")
-    powers, scale, sizes = _power_spectra(x, J, wavelet, shape, bounds, workers)
-    gram = _half_spectrum_gram(powers, nfft)
+    row_bytes = 4 * (nfft // 2 + 1)
+    if J * row_bytes <= SPECTRA_BYTES:
+        powers, scale, sizes = _power_spectra(x, J, wavelet, shape, bounds, workers)
+        gram = _half_spectrum_gram(powers, nfft)
+        del powers
+    else:
+        group = max(1, SPECTRA_BYTES // row_bytes)
+        group = -(-J // -(-J // group))  # the same number of groups, as even as they can be
+        gram, scale, sizes = _grouped_gram(x, J, wavelet, shape, group, bounds, workers)
     M = np.minimum.outer(sizes, sizes).astype(np.float64)
     V = gram * np.outer(scale, scale) / (nfft * M**3)
     upper = np.triu_indices(J, 1)
