@@ -14,8 +14,8 @@ calibration alone:
    :class:`~stochmod.nav.filter.LooselyCoupledFilter` with the calibration's models runs over
    it from a stated initial covariance at the truth, takes the fixes for ``settle`` seconds and
    none for the ``outage`` seconds after the last one. Its covariance is the only output used:
-   ``P <- Phi P Phi' + Q`` between fixes and the Joseph update at each (Gonzalez Alg. 1, lines
-   2-8), with the sensor-error states that :func:`stochmod.augment_axes` builds from the models
+   ``P <- Phi P Phi' + Q`` between fixes and the update at each (Gonzalez Alg. 1, lines 4-8, in
+   Joseph form), with the sensor-error states that :func:`stochmod.augment_axes` builds from the models
    (Quinchia et al. 2013, Section 7) -- the filter's own code, not a copy. With exact fixes
    every innovation is zero, so the filter stays on the reference trajectory and ``F`` is taken
    along it. The predicted 1-sigma horizontal drift at time ``t`` of the outage is
