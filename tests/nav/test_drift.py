@@ -48,11 +48,11 @@ def cal() -> Calibration:
 
 @pytest.fixture(scope="module")
 def prediction(cal: Calibration):
-    return predicted_drift(cal, 30.0, "static", n_draws=40, rng=7, settle=60.0)
+    return predicted_drift(cal, 30.0, "static", n_draws=30, rng=7, settle=60.0)
 
 
 def test_emulated_errors_fall_inside_the_predicted_band(cal, prediction) -> None:
-    check = check_drift(cal, prediction, runs=120, seed=3)
+    check = check_drift(cal, prediction, runs=100, seed=3)
     lo, hi = prediction.band()
     s = prediction.end_sigma
     assert lo < s < hi
@@ -80,7 +80,7 @@ def test_prediction_grows_and_reports(prediction) -> None:
     text = prediction.summary()
     assert "Predicted 1-sigma horizontal drift" in text and "settle check" in text
     d = prediction.to_dict()
-    assert len(d["band"]["p95"]) == sig.size and d["n_draws"] == 40
+    assert len(d["band"]["p95"]) == sig.size and d["n_draws"] == 30
 
 
 def test_draws_reproduce_the_intervals() -> None:
