@@ -18,6 +18,17 @@ gmwm its default ``rng=0``)::
     python studies/mc_gmwm.py                       # all models, default R, 2 workers
     python studies/mc_gmwm.py --only 2GM+WN --reps 20 --out /tmp/mc.md
 
+With ``--bootstrap B`` the study checks the parametric bootstrap instead
+(:mod:`stochmod.fit.bootstrap`): each record gets the default fit only, its asymptotic
+intervals, the identification diagnostic, and B bootstrap replicates (seeded by
+``SeedSequence(SEED, spawn_key=(case.seed_key, r, 1))``); per parameter it reports how often
+the diagnostic flags it and the coverage of the asymptotic, bootstrap (basic, the default;
+BC; percentile) and ``intervals="auto"`` intervals with binomial standard errors, per model the J-test size
+with the chi-square and the bootstrap p-values::
+
+    python studies/mc_gmwm.py --bootstrap 100 --reps 40 --save /tmp/boot.pkl --out /tmp/mc_boot.md
+    python studies/mc_gmwm.py --load /tmp/boot.pkl          # the tables again, no fits
+
 Run time with the default settings: about 16 min wall clock with 2 workers on the 2-core
 machine; the AR(2) fits take half of it (their Jacobian is numerical: ~5 s per fit). Reruns give identical tables (only the times change). The
 markdown tables go to stdout and, with ``--out``, to a file (docs/gmwm_monte_carlo.md
@@ -29,7 +40,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import pickle
 import shlex
+import sys
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
@@ -38,6 +51,7 @@ import numpy as np
 
 import stochmod
 from stochmod.core.errors import EstimationError
+from stochmod.fit.bootstrap import DEFAULT_METHOD, INTERVAL_METHODS, bootstrap, identification
 from stochmod.fit.gmwm import gmwm
 
 FREQ = 100.0
@@ -122,6 +136,93 @@ def one_replication(case: Case, rep: int) -> dict:
     return out
 
 
+def one_bootstrap_replication(case: Case, rep: int, n_boot: int) -> dict:
+    """Simulate replication `rep` of `case`, fit it (default weighting), and bootstrap the fit
+    with `n_boot` replicates: every interval method, the diagnostic and both J-test p-values."""
+    truth = stochmod.model_from_spec(case.spec, FREQ)
+    x = truth.simulate(case.n, np.random.default_rng(np.random.SeedSequence(SEED, spawn_key=(case.seed_key, rep))))
+    out: dict = {"rep": rep}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        t0 = time.perf_counter()
+        starts = (truth,) if case.start_at_truth else ()
+        fit = gmwm(x, truth.freed(), FREQ, starts=starts)
+        out["time"] = time.perf_counter() - t0
+        out["est"], out["low"], out["high"], out["fail"] = _intervals(fit)
+        out["flagged"] = identification(fit).flagged
+        jt = fit.jtest
+        t0, c0 = time.perf_counter(), time.process_time()
+        boot = bootstrap(fit, n_boot, rng=np.random.SeedSequence(SEED, spawn_key=(case.seed_key, rep, 1)))
+        out["time_boot"] = time.perf_counter() - t0
+        out["cpu_boot"] = time.process_time() - c0
+        res = boot.resampling
+        p = len(fit.free_names)
+        for method in INTERVAL_METHODS:
+            ends = np.array([res.interval(i, method=method)[1:] for i in range(p)])
+            out[f"low_{method}"], out[f"high_{method}"] = ends[:, 0], ends[:, 1]
+        out["boot_failed"] = res.draws.failed
+        out["jtest_p"] = np.nan if jt is None else jt.pvalue
+        bj = res.jtest()
+        out["jtest_p_boot"] = np.nan if bj is None else bj.pvalue
+    out["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    return out
+
+
+def _rate(hits: np.ndarray) -> str:
+    """A proportion with its binomial standard error, e.g. ``0.93 (0.03)``."""
+    p, n = float(np.mean(hits)), hits.size
+    return f"{p:.2f} ({np.sqrt(p * (1 - p) / n):.2f})"
+
+
+def summarise_bootstrap(case: Case, results: list[dict], n_boot: int) -> str:
+    """Markdown table of one case's bootstrap study."""
+    truth = stochmod.model_from_spec(case.spec, FREQ)
+    names, tv = truth.param_names, truth.vector()
+    R = len(results)
+
+    def covered(key: str) -> np.ndarray:
+        low = np.array([r[f"low{key}"] for r in results])
+        high = np.array([r[f"high{key}"] for r in results])
+        return (low <= tv) & (tv <= high)  # NaN interval = not covered
+
+    flagged = np.array([r["flagged"] for r in results])
+    asym = covered("")
+    boot = {m: covered(f"_{m}") for m in INTERVAL_METHODS}
+    auto = np.where(flagged, boot[DEFAULT_METHOD], asym)
+    rows = [("| parameter | truth | flagged | cover asympt. | cover boot. basic (default) "
+             "| cover boot. BC | cover boot. percentile | cover auto |"),
+            "|---|---|---|---|---|---|---|---|"]
+    for i, name in enumerate(names):
+        rows.append(f"| {name} | {tv[i]:.4g} | {flagged[:, i].mean():.2f} | {_rate(asym[:, i])} "
+                    f"| {_rate(boot['basic'][:, i])} | {_rate(boot['bc'][:, i])} "
+                    f"| {_rate(boot['percentile'][:, i])} | {_rate(auto[:, i])} |")
+    p = np.array([r["jtest_p"] for r in results])
+    pb = np.array([r["jtest_p_boot"] for r in results])
+    ok = np.isfinite(p) & np.isfinite(pb)
+    any_flag = flagged.any(axis=1)
+    pauto = np.where(any_flag, pb, p)
+    jt = (f"chi-square {_rate(p[ok] < 0.05)}, bootstrap {_rate(pb[ok] < 0.05)}, auto "
+          f"{_rate(pauto[ok] < 0.05)} ({ok.sum()} tests)") if ok.any() else "n/a"
+    lines = [
+        f"### {case.name}: R = {R}, N = {case.n} (2^{int(np.log2(case.n))}), 100 Hz, B = {n_boot}",
+        "",
+        f"Truth `{case.spec}`.",
+        "",
+        *rows,
+        "",
+        f"- J-test rejection rate at 5 %: {jt}",
+        f"- records where the diagnostic flags some parameter (auto runs the bootstrap): {any_flag.mean():.2f}",
+        (f"- inference failures of the asymptotic intervals: {sum(r['fail'] != '' for r in results)}/{R}; "
+         f"failed bootstrap refits: {sum(r['boot_failed'] for r in results)} of {R * n_boot}"),
+        f"- replications with a warning: {sum(bool(r['warnings']) for r in results)}"
+        + "".join(f"; {m}" for m in sorted({m for r in results for m in r["warnings"]})),
+        (f"- mean time: fit {np.mean([r['time'] for r in results]):.2f} s; bootstrap "
+         f"{np.mean([r['time_boot'] for r in results]):.1f} s wall, "
+         f"{np.mean([r['cpu_boot'] for r in results]):.1f} s CPU"),
+    ]
+    return "\n".join(lines)
+
+
 def summarise(case: Case, results: list[dict]) -> str:
     """Markdown tables of one case."""
     truth = stochmod.model_from_spec(case.spec, FREQ)
@@ -137,8 +238,8 @@ def summarise(case: Case, results: list[dict]) -> str:
 
     err, err_o = est - tv, est_o - tv
     rmse, rmse_o = np.sqrt(np.mean(err**2, axis=0)), np.sqrt(np.mean(err_o**2, axis=0))
-    rows = ["| parameter | truth | mean est. | bias | RMSE | rel. RMSE | median abs. rel. err. "
-            "| cover 95 % | RMSE (opt.) | cover 95 % (opt.) |",
+    rows = [("| parameter | truth | mean est. | bias | RMSE | rel. RMSE | median abs. rel. err. "
+             "| cover 95 % | RMSE (opt.) | cover 95 % (opt.) |"),
             "|---|---|---|---|---|---|---|---|---|---|"]
     cov, cov_o = cover(""), cover("_opt")
     for i, name in enumerate(names):
@@ -170,16 +271,16 @@ def summarise(case: Case, results: list[dict]) -> str:
         *rows,
         "",
         f"- J-test rejection rate at 5 % (default fit): {jt}",
-        f"- fits whose objective exceeds the truth's (same Omega): default {np.mean([r['search_worse'] for r in results]):.2f}, "
-        f"optimal {np.mean([r['search_worse_opt'] for r in results]):.2f}",
-        f"- inference failures (singular D'WD or a zero std. error; counted as not covering): "
-        f"default {fails}/{R}, optimal {fails_o}/{R}",
+        (f"- fits whose objective exceeds the truth's (same Omega): default {np.mean([r['search_worse'] for r in results]):.2f}, "
+         f"optimal {np.mean([r['search_worse_opt'] for r in results]):.2f}"),
+        (f"- inference failures (singular D'WD or a zero std. error; counted as not covering): "
+         f"default {fails}/{R}, optimal {fails_o}/{R}"),
         f"- replications with a warning: {sum(bool(r['warnings']) for r in results)}"
         + "".join(f"; {m}" for m in sorted({m for r in results for m in r["warnings"]})),
         f"- levels: default J = {results[0]['levels']}; optimal weighting J: {levels_o}",
-        f"- mean time: default fit {np.mean([r['time'] for r in results]):.2f} s + intervals "
-        f"{np.mean([r['time_inference'] for r in results]):.2f} s; optimal fit (with eq. 17 V) "
-        f"{np.mean([r['time_opt'] for r in results]):.2f} s",
+        (f"- mean time: default fit {np.mean([r['time'] for r in results]):.2f} s + intervals "
+         f"{np.mean([r['time_inference'] for r in results]):.2f} s; optimal fit (with eq. 17 V) "
+         f"{np.mean([r['time_opt'] for r in results]):.2f} s"),
     ]
     return "\n".join(head)
 
@@ -191,18 +292,43 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--n", type=int, help="sample size for every chosen case (default: each case's N)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", help="also write the markdown tables to this file")
+    parser.add_argument("--bootstrap", type=int, metavar="B",
+                        help="bootstrap study with B replicates per record (default fit only)")
+    parser.add_argument("--save", help="bootstrap study: also pickle the per-record results here")
+    parser.add_argument("--load", help="bootstrap study: summarise the results pickled by --save "
+                        "(no fits)")
     args = parser.parse_args(argv)
     chosen = [dataclasses.replace(c, n=args.n or c.n, reps=args.reps or c.reps)
               for c in CASES if not args.only or c.name in args.only]
     t_start = time.perf_counter()
+    if args.load:
+        with open(args.load, "rb") as fh:
+            saved = pickle.load(fh)
+        sections = [summarise_bootstrap(c, saved["results"][c.name], saved["n_boot"])
+                    for c in chosen]
+        print("\n\n".join(sections))
+        return
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [[pool.submit(one_replication, c, r) for r in range(c.reps)] for c in chosen]
-        sections = [summarise(c, [f.result() for f in fs]) for c, fs in zip(chosen, futures)]
+        if args.bootstrap:
+            futures = [[pool.submit(one_bootstrap_replication, c, r, args.bootstrap)
+                        for r in range(c.reps)] for c in chosen]
+            for c, fs in zip(chosen, futures):  # progress on stderr
+                for r, f in enumerate(fs):
+                    f.add_done_callback(lambda _, c=c, r=r: print(f"{c.name} {r} done", file=sys.stderr,
+                                                                  flush=True))
+            done = {c.name: [f.result() for f in fs] for c, fs in zip(chosen, futures)}
+            sections = [summarise_bootstrap(c, done[c.name], args.bootstrap) for c in chosen]
+            if args.save:
+                with open(args.save, "wb") as fh:
+                    pickle.dump({"n_boot": args.bootstrap, "results": done}, fh)
+        else:
+            futures = [[pool.submit(one_replication, c, r) for r in range(c.reps)] for c in chosen]
+            sections = [summarise(c, [f.result() for f in fs]) for c, fs in zip(chosen, futures)]
     elapsed = time.perf_counter() - t_start
     text = "\n\n".join([
-        f"Command: `{shlex.join(['python', 'studies/mc_gmwm.py', *(argv or [])])}`, "
-        f"{datetime.date.today().isoformat()}, stochmod {stochmod.__version__}, "
-        f"{args.workers} workers, total {elapsed / 60:.1f} min wall clock.",
+        (f"Command: `{shlex.join(['python', 'studies/mc_gmwm.py', *(argv or [])])}`, "
+         f"{datetime.date.today().isoformat()}, stochmod {stochmod.__version__}, "
+         f"{args.workers} workers, total {elapsed / 60:.1f} min wall clock."),
         *sections,
     ])
     print(text)
@@ -212,6 +338,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    import sys
-
     main(sys.argv[1:])
