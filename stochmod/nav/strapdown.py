@@ -20,8 +20,9 @@ over ten minutes:
   Coriolis (eq. 17c) at the middle of the interval (extrapolated from the two previous epochs).
 - Position: eq. 18 with the trapezoid of the old and new velocity.
 
-The hot loop is plain Python on floats (the ``math`` module): on 3-vectors a float expression
-costs less than the overhead of one numpy call.
+One interval is :func:`mech_step`, compiled by numba without fast-math flags (so its results
+are the plain Python function's to the bit) on a state vector of floats;
+:func:`mech_steps` runs it over a record and the filter over its covariance steps.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.core.errors import InputError
+from stochmod.core.jit import compiled
 from stochmod.nav import earth, frames
 from stochmod.nav.records import IMU_KINDS, TrajectoryArrays, check_time
 
@@ -113,27 +115,47 @@ class Mechanisation:
     corrects them in place between steps (:meth:`set_state`).
     """
 
-    __slots__ = ("_dtp", "_gravity", "_prev", "dv_n", "h", "lat", "lon", "q", "v", "w_in")
+    __slots__ = ("_gravity", "_x")
 
     def __init__(self, state: NavState, gravity: Callable[[float, float], float] | None = None
                  ) -> None:
         self._gravity = gravity
+        self._x = np.zeros(STATE_SIZE)
         self.set_state(state)
 
     def set_state(self, state: NavState) -> None:
         """Replace the state (keeps nothing of the previous extrapolation history)."""
-        q = frames.quat_normalize(state.q_nb)
-        self.q = tuple(float(x) for x in q)
-        self.v = tuple(float(x) for x in np.asarray(state.vel_ned, dtype=float))
-        self.lat, self.lon, self.h = float(state.lat), float(state.lon), float(state.height)
-        self._prev = None
-        self._dtp = 0.0
-        self.dv_n = [0.0, 0.0, 0.0]
-        self.w_in = (0.0, 0.0, 0.0)
+        x = self._x
+        x[:] = 0.0
+        x[_Q] = frames.quat_normalize(state.q_nb)
+        x[_V] = np.asarray(state.vel_ned, dtype=float)
+        x[0], x[1], x[2] = float(state.lat), float(state.lon), float(state.height)
 
     def state(self) -> NavState:
         """The current state as a :class:`NavState`."""
         return NavState(np.array(self.q), np.array(self.v), self.lat, self.lon, self.h)
+
+    @property
+    def x(self) -> np.ndarray:
+        """The state vector the compiled step works on (``lat, lon, h, v, q``, then the
+        extrapolation history, ``w_in`` and ``dv_n``; a view, not a copy)."""
+        return self._x
+
+    lat = property(lambda self: float(self._x[0]),
+                   lambda self, v: self._x.__setitem__(0, v), doc="Latitude, rad.")
+    lon = property(lambda self: float(self._x[1]),
+                   lambda self, v: self._x.__setitem__(1, v), doc="Longitude, rad.")
+    h = property(lambda self: float(self._x[2]),
+                 lambda self, v: self._x.__setitem__(2, v), doc="Ellipsoidal height, m.")
+    v = property(lambda self: tuple(self._x[_V].tolist()),
+                 lambda self, v: self._x.__setitem__(_V, v), doc="NED velocity (3 floats), m/s.")
+    q = property(lambda self: tuple(self._x[_Q].tolist()),
+                 lambda self, v: self._x.__setitem__(_Q, v),
+                 doc="Attitude quaternion ``q_nb`` (4 floats, scalar first).")
+    w_in = property(lambda self: tuple(self._x[_W_IN].tolist()),
+                    doc="NED-frame rate w.r.t. inertial space at the start of the last step.")
+    dv_n = property(lambda self: self._x[_DV_N], lambda self, v: self._x.__setitem__(_DV_N, v),
+                    doc="Accumulated NED specific-force velocity increments (a view), m/s.")
 
     def step(self, dt: float, dth: Sequence[float], dvb: Sequence[float],
              con: Sequence[float], scu: Sequence[float]) -> None:
@@ -154,92 +176,118 @@ class Mechanisation:
         caller resets it (the filter's mean specific force over its step); ``w_in`` is the
         NED frame's rate w.r.t. inertial space at the start of the interval.
         """
-        q0, q1, q2, q3 = self.q
-        vn, ve, vd = self.v
-        lat, h = self.lat, self.h
-        # Earth model at the start of the interval: eqs. 9, 10, 11, 16
-        sl, cl = math.sin(lat), math.cos(lat)
-        s2 = sl * sl
-        w = 1.0 - _E2 * s2
-        sw = math.sqrt(w)
-        re = _A / sw
-        rn = re * (1.0 - _E2) / w
-        if self._gravity is None:
-            g = _G0 * (1.0 + _G1 * s2 - _G2 * 4.0 * s2 * cl * cl) / (1.0 + h * sw / (re * _SQ1E2)) ** 2
-        else:
-            g = float(self._gravity(lat, h))
-        wen_n, wen_e = ve / (re + h), -vn / (rn + h)
-        wen_d = -wen_n * sl / cl
-        wx, wy, wz = _OM * cl + wen_n, wen_e, -_OM * sl + wen_d
-        # eq. 17c without the specific force: g - (2 w_ie + w_en) x v
-        cx, cz = wx + _OM * cl, wz - _OM * sl
-        ax_, ay_, az_ = wy * vd - cz * ve, cz * vn - cx * vd, g - (cx * ve - wy * vn)
-        ax_ = -ax_
-        ay_ = -ay_
-        prev = self._prev
-        self._prev = (wx, wy, wz, ax_, ay_, az_)
-        self.w_in = (wx, wy, wz)
-        if prev is None:
-            zx, zy, zz = wx * dt, wy * dt, wz * dt
-            mx, my, mz = ax_ * dt, ay_ * dt, az_ * dt
-        else:  # linear extrapolation to the middle of the interval
-            k = 0.5 * dt / self._dtp
-            k1 = 1.0 + k
-            zx, zy, zz = (k1 * wx - k * prev[0]) * dt, (k1 * wy - k * prev[1]) * dt, (k1 * wz - k * prev[2]) * dt
-            mx, my, mz = (k1 * ax_ - k * prev[3]) * dt, (k1 * ay_ - k * prev[4]) * dt, (k1 * az_ - k * prev[5]) * dt
-        self._dtp = dt
-        # body velocity increment: rotation and sculling compensation
-        ax, ay, az = dth
-        bx, by, bz = dvb
-        ux = bx + 0.5 * (ay * bz - az * by) + scu[0]
-        uy = by + 0.5 * (az * bx - ax * bz) + scu[1]
-        uz = bz + 0.5 * (ax * by - ay * bx) + scu[2]
-        # C_nb from q (eq. 14, scalar first) applied to u
-        fx = (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * ux + 2.0 * ((q1 * q2 - q0 * q3) * uy + (q1 * q3 + q0 * q2) * uz)
-        fy = (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * uy + 2.0 * ((q1 * q2 + q0 * q3) * ux + (q2 * q3 - q0 * q1) * uz)
-        fz = (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * uz + 2.0 * ((q1 * q3 - q0 * q2) * ux + (q2 * q3 + q0 * q1) * uy)
-        # navigation-frame rotation over the interval: (I - [zeta x] / 2)
-        fx, fy, fz = (fx - 0.5 * (zy * fz - zz * fy), fy - 0.5 * (zz * fx - zx * fz),
-                      fz - 0.5 * (zx * fy - zy * fx))
-        acc = self.dv_n
-        acc[0] += fx
-        acc[1] += fy
-        acc[2] += fz
-        vn1, ve1, vd1 = vn + fx + mx, ve + fy + my, vd + fz + mz
-        # attitude: q <- q(-zeta) * q * q(phi)   (eq. 13 as rotation vectors)
-        px, py, pz = ax + con[0], ay + con[1], az + con[2]
-        a2 = px * px + py * py + pz * pz
-        if a2 < 2.5e-3:  # |phi| < 0.05 rad: series exact to ~1e-15
-            s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
-            c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0 - a2 * a2 * a2 / 46080.0
-        else:
-            a = math.sqrt(a2)
-            s, c = math.sin(0.5 * a) / a, math.cos(0.5 * a)
-        r1, r2, r3 = s * px, s * py, s * pz
-        t0 = q0 * c - q1 * r1 - q2 * r2 - q3 * r3
-        t1 = q0 * r1 + q1 * c + q2 * r3 - q3 * r2
-        t2 = q0 * r2 - q1 * r3 + q2 * c + q3 * r1
-        t3 = q0 * r3 + q1 * r2 - q2 * r1 + q3 * c
-        # q(-zeta): |zeta| < 1e-3 rad, so the second-order series is exact to double precision
-        l0 = 1.0 - (zx * zx + zy * zy + zz * zz) / 8.0
-        l1, l2, l3 = -0.5 * zx, -0.5 * zy, -0.5 * zz
-        n0 = l0 * t0 - l1 * t1 - l2 * t2 - l3 * t3
-        n1 = l0 * t1 + l1 * t0 + l2 * t3 - l3 * t2
-        n2 = l0 * t2 - l1 * t3 + l2 * t0 + l3 * t1
-        n3 = l0 * t3 + l1 * t2 - l2 * t1 + l3 * t0
-        nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)  # eq. 13h
-        self.q = (n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm)
-        # position: eq. 18 with the mean velocity of the interval; the radii and cosine at the
-        # middle latitude from first-order expansions (the latitude step is < 1e-5 rad)
-        h1 = h - 0.5 * (vd + vd1) * dt
-        hm = 0.5 * (h + h1)
-        dlat = 0.5 * (vn + vn1) * dt / (rn + hm)
-        half = 0.5 * dlat
-        cm = cl - sl * half
-        rem = re * (1.0 + _E2 * sl * cl * half / w)
-        self.lon += 0.5 * (ve + ve1) * dt / ((rem + hm) * cm)
-        self.lat, self.h = lat + dlat, h1
-        self.v = (vn1, ve1, vd1)
+        x = self._x
+        g = math.nan if self._gravity is None else float(self._gravity(x[0], x[2]))
+        mech_step(x, dt, dth[0], dth[1], dth[2], dvb[0], dvb[1], dvb[2], con[0], con[1], con[2],
+                  scu[0], scu[1], scu[2], g)
+
+
+#: Layout of :attr:`Mechanisation.x`: lat, lon, h (0-2), velocity (3-5), quaternion (6-9), the
+#: previous step's frame rate and gravity/Coriolis term (10-15), whether there is one (16), the
+#: previous step's length (17), ``w_in`` (18-20), ``dv_n`` (21-23).
+STATE_SIZE = 24
+_V, _Q, _W_IN, _DV_N = slice(3, 6), slice(6, 10), slice(18, 21), slice(21, 24)
+
+
+@compiled(fastmath=frozenset())  # no flag: the compiled step gives the plain one's bits
+def mech_step(x: np.ndarray, dt: float, ax: float, ay: float, az: float, bx: float, by: float,
+              bz: float, c0: float, c1: float, c2: float, s0: float, s1: float, s2_: float,
+              g: float) -> None:
+    """One interval of the mechanisation on the state vector `x` (:attr:`Mechanisation.x`,
+    updated in place): angle increment ``a``, velocity increment ``b``, coning ``c`` and
+    sculling ``s`` terms; gravity `g` (m/s^2), NaN for eq. 16."""
+    q0, q1, q2, q3 = x[6], x[7], x[8], x[9]
+    vn, ve, vd = x[3], x[4], x[5]
+    lat, h = x[0], x[2]
+    # Earth model at the start of the interval: eqs. 9, 10, 11, 16
+    sl, cl = math.sin(lat), math.cos(lat)
+    s2 = sl * sl
+    w = 1.0 - _E2 * s2
+    sw = math.sqrt(w)
+    re = _A / sw
+    rn = re * (1.0 - _E2) / w
+    if math.isnan(g):  # the square as a product: numba's `** 2` is one, CPython's a pow()
+        d = 1.0 + h * sw / (re * _SQ1E2)
+        g = _G0 * (1.0 + _G1 * s2 - _G2 * 4.0 * s2 * cl * cl) / (d * d)
+    wen_n, wen_e = ve / (re + h), -vn / (rn + h)
+    wen_d = -wen_n * sl / cl
+    wx, wy, wz = _OM * cl + wen_n, wen_e, -_OM * sl + wen_d
+    # eq. 17c without the specific force: g - (2 w_ie + w_en) x v
+    cx, cz = wx + _OM * cl, wz - _OM * sl
+    ax_, ay_, az_ = wy * vd - cz * ve, cz * vn - cx * vd, g - (cx * ve - wy * vn)
+    ax_ = -ax_
+    ay_ = -ay_
+    if x[16] == 0.0:
+        zx, zy, zz = wx * dt, wy * dt, wz * dt
+        mx, my, mz = ax_ * dt, ay_ * dt, az_ * dt
+    else:  # linear extrapolation to the middle of the interval
+        k = 0.5 * dt / x[17]
+        k1 = 1.0 + k
+        zx, zy, zz = (k1 * wx - k * x[10]) * dt, (k1 * wy - k * x[11]) * dt, (k1 * wz - k * x[12]) * dt
+        mx, my, mz = (k1 * ax_ - k * x[13]) * dt, (k1 * ay_ - k * x[14]) * dt, (k1 * az_ - k * x[15]) * dt
+    x[10], x[11], x[12], x[13], x[14], x[15], x[16] = wx, wy, wz, ax_, ay_, az_, 1.0
+    x[18], x[19], x[20] = wx, wy, wz
+    x[17] = dt
+    # body velocity increment: rotation and sculling compensation
+    ux = bx + 0.5 * (ay * bz - az * by) + s0
+    uy = by + 0.5 * (az * bx - ax * bz) + s1
+    uz = bz + 0.5 * (ax * by - ay * bx) + s2_
+    # C_nb from q (eq. 14, scalar first) applied to u
+    fx = (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * ux + 2.0 * ((q1 * q2 - q0 * q3) * uy + (q1 * q3 + q0 * q2) * uz)
+    fy = (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * uy + 2.0 * ((q1 * q2 + q0 * q3) * ux + (q2 * q3 - q0 * q1) * uz)
+    fz = (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * uz + 2.0 * ((q1 * q3 - q0 * q2) * ux + (q2 * q3 + q0 * q1) * uy)
+    # navigation-frame rotation over the interval: (I - [zeta x] / 2)
+    fx, fy, fz = (fx - 0.5 * (zy * fz - zz * fy), fy - 0.5 * (zz * fx - zx * fz),
+                  fz - 0.5 * (zx * fy - zy * fx))
+    x[21] += fx
+    x[22] += fy
+    x[23] += fz
+    vn1, ve1, vd1 = vn + fx + mx, ve + fy + my, vd + fz + mz
+    # attitude: q <- q(-zeta) * q * q(phi)   (eq. 13 as rotation vectors)
+    px, py, pz = ax + c0, ay + c1, az + c2
+    a2 = px * px + py * py + pz * pz
+    if a2 < 2.5e-3:  # |phi| < 0.05 rad: series exact to ~1e-15
+        s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0 - a2 * a2 * a2 / 46080.0
+    else:
+        a = math.sqrt(a2)
+        s, c = math.sin(0.5 * a) / a, math.cos(0.5 * a)
+    r1, r2, r3 = s * px, s * py, s * pz
+    t0 = q0 * c - q1 * r1 - q2 * r2 - q3 * r3
+    t1 = q0 * r1 + q1 * c + q2 * r3 - q3 * r2
+    t2 = q0 * r2 - q1 * r3 + q2 * c + q3 * r1
+    t3 = q0 * r3 + q1 * r2 - q2 * r1 + q3 * c
+    # q(-zeta): |zeta| < 1e-3 rad, so the second-order series is exact to double precision
+    l0 = 1.0 - (zx * zx + zy * zy + zz * zz) / 8.0
+    l1, l2, l3 = -0.5 * zx, -0.5 * zy, -0.5 * zz
+    n0 = l0 * t0 - l1 * t1 - l2 * t2 - l3 * t3
+    n1 = l0 * t1 + l1 * t0 + l2 * t3 - l3 * t2
+    n2 = l0 * t2 - l1 * t3 + l2 * t0 + l3 * t1
+    n3 = l0 * t3 + l1 * t2 - l2 * t1 + l3 * t0
+    nrm = 1.0 / math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)  # eq. 13h
+    x[6], x[7], x[8], x[9] = n0 * nrm, n1 * nrm, n2 * nrm, n3 * nrm
+    # position: eq. 18 with the mean velocity of the interval; the radii and cosine at the
+    # middle latitude from first-order expansions (the latitude step is < 1e-5 rad)
+    h1 = h - 0.5 * (vd + vd1) * dt
+    hm = 0.5 * (h + h1)
+    dlat = 0.5 * (vn + vn1) * dt / (rn + hm)
+    half = 0.5 * dlat
+    cm = cl - sl * half
+    rem = re * (1.0 + _E2 * sl * cl * half / w)
+    x[1] += 0.5 * (ve + ve1) * dt / ((rem + hm) * cm)
+    x[0], x[2] = lat + dlat, h1
+    x[3], x[4], x[5] = vn1, ve1, vd1
+
+
+@compiled(fastmath=frozenset())
+def mech_steps(x: np.ndarray, h: np.ndarray, dth: np.ndarray, dv: np.ndarray, con: np.ndarray,
+               scu: np.ndarray, rows: np.ndarray) -> None:
+    """Every interval of a record with eq. 16's gravity (:func:`mech_step`), the state after
+    interval ``k`` written to ``rows[k + 1]`` (``lat, lon, h, v, q``)."""
+    for k in range(h.size):
+        mech_step(x, h[k], dth[k, 0], dth[k, 1], dth[k, 2], dv[k, 0], dv[k, 1], dv[k, 2],
+                  con[k, 0], con[k, 1], con[k, 2], scu[k, 0], scu[k, 1], scu[k, 2], math.nan)
+        rows[k + 1] = x[:10]
 
 
 def imu_increments(time: np.ndarray, gyro: np.ndarray, accel: np.ndarray, kind: str
@@ -334,12 +382,14 @@ def strapdown(time: ArrayLike, gyro: ArrayLike, accel: ArrayLike, *, lat: float,
     mech = Mechanisation(NavState.from_degrees(lat=lat, lon=lon, height=height, vel_ned=vel_ned,
                                                rph=rph), gravity)
     h, dth, dv, con, scu = imu_increments(t, g, a, kind)
-    rows = [(mech.lat, mech.lon, mech.h, *mech.v, *mech.q)]
-    append, step = rows.append, mech.step
-    for hk, a_, b_, c_, s_ in zip(h.tolist(), dth.tolist(), dv.tolist(), con.tolist(),
-                                  scu.tolist()):
-        step(hk, a_, b_, c_, s_)
-        append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
-    arr = np.array(rows)
+    arr = np.empty((t.size, 10))
+    arr[0] = mech.x[:10]
+    if gravity is None:
+        mech_steps(mech.x, h, dth, dv, con, scu, arr)
+    else:
+        for k, (hk, a_, b_, c_, s_) in enumerate(zip(h.tolist(), dth.tolist(), dv.tolist(),
+                                                    con.tolist(), scu.tolist())):
+            mech.step(hk, a_, b_, c_, s_)
+            arr[k + 1] = mech.x[:10]
     return StrapdownResult(t, np.degrees(arr[:, 0]), np.degrees(arr[:, 1]), arr[:, 2],
                            arr[:, 3:6], frames.quat_to_rph(arr[:, 6:10]))
