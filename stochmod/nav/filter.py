@@ -101,15 +101,14 @@ from collections.abc import Mapping, Sequence
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.stats import chi2
 
 from stochmod.core.errors import EstimationError, InputError, SpecError
 from stochmod.core.fields import array_field
+from stochmod.core.jit import compiled
 from stochmod.core.model import Model, augment_axes
 from stochmod.core.statespace import ContinuousBlock, compose_steps, discretise
 from stochmod.core.tables import format_table
 from stochmod.core.units import signal_unit
-from stochmod.fit.equivalence import beyond_record
 from stochmod.nav import earth, frames
 from stochmod.nav.alignment import InitialState, align_from_gnss
 from stochmod.nav.emulate import AXES, Trajectory
@@ -128,7 +127,7 @@ from stochmod.nav.smoother import (
     interpolate_errors,
     node_ranges,
 )
-from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments
+from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments, mech_step
 
 __all__ = [
     "ERROR_MODELS",
@@ -501,6 +500,8 @@ class NavResult(TrajectoryArrays):
             Rows ``(start, end, n, mean NIS, band low, band high, judged, far)``; start and
             end in s from the first IMU sample.
         """
+        from scipy.stats import chi2
+
         t0 = float(self.time[0]) if self.time.size else 0.0
         first = t0 if self.alignment is None else self.alignment.first_time
         out = {}
@@ -574,6 +575,8 @@ class NavResult(TrajectoryArrays):
         lines += [r.describe() for r in self.random_walks]
         lines.append(self.health().describe())
         if self.nees is not None:
+            from scipy.stats import chi2
+
             lo, hi = chi2.ppf([0.025, 0.975], 9)
             lines.append(f"mean NEES (9 nav states) {self.mean_nees:.3g}; single-epoch 95% band "
                          f"[{lo:.3g}, {hi:.3g}], {np.mean((self.nees > lo) & (self.nees < hi)):.0%}"
@@ -703,6 +706,8 @@ def _as_random_walks(models: dict[str, Model], names: list[str], record: float, 
     ``F = 0``, ``Phi = 1``, ``Q = q dt`` and ``P0 = q record`` with ``q = 2 sigma^2 / Tc`` (the
     state's continuous driving noise; from a discrete-only block, its one-step ``Q / dt``).
     Returns ``(F, Phi, Q, P0, walks)`` (copies when changed)."""
+    from stochmod.fit.equivalence import beyond_record  # only with a record: keeps fit out
+
     walks, kept = [], []
     for axis, model in models.items():
         for k, tc in beyond_record(model, signal_unit(axis), record):
@@ -835,6 +840,33 @@ def _bdiag(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.zeros((n + k, n + k))
     out[:n, :n], out[n:, n:] = a, b
     return out
+
+
+@compiled(fastmath=frozenset())  # no flag: the plain loop's bits
+def _advance(x: np.ndarray, t: np.ndarray, h: np.ndarray, dth: np.ndarray, dv: np.ndarray,
+             con: np.ndarray, scu: np.ndarray, corr: np.ndarray, k: int, t_event: float,
+             dtf: float, last: int, rows: np.ndarray, prev: np.ndarray) -> tuple:
+    """The mechanisation from IMU interval `k` on to the end of the covariance step: after the
+    interval that reaches `t_event` (within 1 ns), after `dtf` seconds or at the `last`
+    interval, whichever comes first. The increments are corrected by the nominal sensor errors
+    `corr` (gyro x/y/z, accel x/y/z, per second); ``rows[k + 1]`` takes the state after
+    interval ``k``, `prev` position and velocity before the last one. Returns ``(k of the last
+    interval, seconds advanced, whether t_event was reached)``."""
+    cg0, cg1, cg2, ca0, ca1, ca2 = corr[0], corr[1], corr[2], corr[3], corr[4], corr[5]
+    elapsed = 0.0
+    while True:
+        hk = h[k]
+        due = t_event <= t[k + 1] + 1e-9
+        if due:
+            prev[:] = x[:6]
+        mech_step(x, hk, dth[k, 0] - cg0 * hk, dth[k, 1] - cg1 * hk, dth[k, 2] - cg2 * hk,
+                  dv[k, 0] - ca0 * hk, dv[k, 1] - ca1 * hk, dv[k, 2] - ca2 * hk, con[k, 0],
+                  con[k, 1], con[k, 2], scu[k, 0], scu[k, 1], scu[k, 2], math.nan)
+        elapsed += hk
+        rows[k + 1] = x[:10]
+        if due or elapsed >= dtf - 1e-9 or k == last:
+            return k, elapsed, due
+        k += 1
 
 
 class LooselyCoupledFilter:
@@ -1179,6 +1211,8 @@ class _Run:
         if gate is not None:
             thr = self.thresholds.get(m)
             if thr is None:
+                from scipy.stats import chi2
+
                 thr = self.thresholds[m] = float(chi2.ppf(gate, m))
             streak = self.streak.get(kind, 0)
             if nis <= thr:
@@ -1272,55 +1306,52 @@ class _Run:
     def execute(self) -> NavResult:
         flt, sens, mech = self.flt, self.sens, self.mech
         t, h = self.t, self.h
-        dth, dv, con, scu = (x.tolist() for x in (self.dth, self.dv, self.con, self.scu))
-        hl = h.tolist()
+        dth, dv = self.dth, self.dv
         tl = t.tolist()
         events = self.events
         ne, ie = len(events), 0
         dtf = flt.dt_filter
         dt_imu = sens.dt
-        rows = [(mech.lat, mech.lon, mech.h, *mech.v, *mech.q)]
+        x = mech.x
+        last = h.size - 1
+        rows = np.empty((h.size + 1, 10))  # lat, lon, h, v, q after every IMU interval
+        rows[0] = x[:10]
+        prev = np.empty(6)
         epochs: list[tuple] = []
         epoch_rows: list[int] = []
         nav_P: list[np.ndarray] = []
-        elapsed = 0.0
         self.t_now = self.t_prev = tl[0]
         self._record(epochs, epoch_rows, nav_P, 0)
-        cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
-        last = len(hl) - 1
-        step = mech.step
-        mech.dv_n = [0.0, 0.0, 0.0]
-        for k in range(len(hl)):
-            hk = hl[k]
-            a_, b_ = dth[k], dv[k]
-            d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
+        x[21:24] = 0.0  # dv_n
+        k = 0
+        while k <= last:
+            t_event = events[ie][0] if ie < ne else math.inf
+            corr = self.corr  # the step's sensor-error correction (propagate replaces it)
+            k, elapsed, due = _advance(x, t, h, dth, dv, self.con, self.scu, corr, k, t_event,
+                                       dtf, last, rows, prev)
             tk = tl[k + 1]
-            due = ie < ne and events[ie][0] <= tk + 1e-9
+            self.t_prev, self.t_now = tl[k], tk
+            m = max(1, int(round(elapsed / dt_imu)))
+            acc = x[21:24].tolist()
+            self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed, acc[2] / elapsed))
+            x[21:24] = 0.0
             if due:
-                prev = (mech.lat, mech.lon, mech.h, mech.v)
-            step(hk, d_th, (b_[0] - ca0 * hk, b_[1] - ca1 * hk, b_[2] - ca2 * hk), con[k], scu[k])
-            elapsed += hk
-            if due or elapsed >= dtf - 1e-9 or k == last:
-                self.t_prev, self.t_now = tl[k], tk
-                m = max(1, int(round(elapsed / dt_imu)))
-                acc = mech.dv_n
-                self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed,
-                                             acc[2] / elapsed))
-                mech.dv_n = [0.0, 0.0, 0.0]
-                elapsed = 0.0
-                if due:
-                    C = frames.quat_to_dcm(mech.q)
-                    w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
-                    while ie < ne and events[ie][0] <= tk + 1e-9:
-                        self.t_meas = events[ie][0]
-                        self._update(events[ie][2], self._snapshot(events[ie][0], prev, w_nb))
-                        ie += 1
-                    self._check_psd()
-                cg0, cg1, cg2, ca0, ca1, ca2 = self.corr.tolist()
-                rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
-                self._record(epochs, epoch_rows, nav_P, len(rows) - 1)
-            else:
-                rows.append((mech.lat, mech.lon, mech.h, *mech.v, *mech.q))
+                hk = float(h[k])
+                cg0, cg1, cg2 = corr[:3].tolist()
+                a_ = dth[k].tolist()
+                d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
+                C = frames.quat_to_dcm(mech.q)
+                w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
+                p = prev.tolist()
+                before = (p[0], p[1], p[2], (p[3], p[4], p[5]))
+                while ie < ne and events[ie][0] <= tk + 1e-9:
+                    self.t_meas = events[ie][0]
+                    self._update(events[ie][2], self._snapshot(events[ie][0], before, w_nb))
+                    ie += 1
+                self._check_psd()
+                rows[k + 1] = x[:10]  # the state after the feedback
+            k += 1
+            self._record(epochs, epoch_rows, nav_P, k)
         return self._result(rows, epochs, epoch_rows, nav_P)
 
     def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
@@ -1343,7 +1374,7 @@ class _Run:
                                   f"t = {self.t_now:.6g} s (eigenvalues {ev[0]:.3g} .. {ev[-1]:.3g})")
 
     def _result(self, rows: list, epochs: list, epoch_rows: list, nav_P: list) -> NavResult:
-        arr = np.array(rows)
+        arr = rows
         et = np.array([e[0] for e in epochs])
         esd = np.array([e[1] for e in epochs])
         ess = np.array([e[2] for e in epochs]).reshape(len(epochs), -1)
