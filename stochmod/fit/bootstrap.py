@@ -367,7 +367,7 @@ def bootstrap_draws(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.
     n_boot = check_positive_int(n_boot, name="n_boot", minimum=2)
     chunk = check_positive_int(chunk, name="chunk")
     seeds = _seeds(rng, n_boot)
-    names = tuple(e.name for e in _physical_list(fit))
+    names = tuple(name for name, _ in _physical_list(fit))
     task = _Task(model=fit.model, n=int(fit.empirical.n), levels=int(fit.levels),
                  wavelet=fit.empirical.wavelet, estimator=estimator_options(fit.empirical),
                  omega=np.asarray(fit.omega, dtype=np.float64),
@@ -386,20 +386,12 @@ def bootstrap_draws(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.
                           converged=conv)
 
 
-def _physical_list(fit: GMWMResult) -> list[Any]:
-    """The fit's physical values (names, values), without intervals."""
+def _physical_list(fit: GMWMResult) -> list[tuple[str, float]]:
+    """The fit's physical values as (name, value), in the order of ``fit.physical()``."""
     freq = float(fit.model.freq)
-    out = []
-    for label, proc in zip(fit.model.labels, fit.model.processes):
-        for name, pv in proc.physical(freq).items():
-            out.append(_Named(f"{label}.{name}", float(pv.value)))
-    return out
-
-
-@attrs.frozen
-class _Named:
-    name: str
-    value: float
+    return [(f"{label}.{name}", float(pv.value))
+            for label, proc in zip(fit.model.labels, fit.model.processes)
+            for name, pv in proc.physical(freq).items()]
 
 
 # ------------------------------------------------------------------------- intervals
@@ -596,7 +588,7 @@ def bootstrap(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.SeedSe
     chosen = set(owner[fit.free_mask][use])
     use_physical = np.array([name.split(".")[0] in chosen for name in draws.physical_names],
                             dtype=bool)
-    physical_values = np.array([e.value for e in _physical_list(fit)], dtype=np.float64)
+    physical_values = np.array([v for _, v in _physical_list(fit)], dtype=np.float64)
     boot = Bootstrap(draws=draws, estimate=fit.model.vector()[fit.free_mask],
                      physical_values=physical_values, observed=fit.asymptotic_jtest, use=use,
                      use_physical=use_physical, alpha=fit.alpha, method=method, diagnostic=diag)
