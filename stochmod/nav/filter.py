@@ -106,7 +106,7 @@ from stochmod.core.errors import EstimationError, InputError, SpecError
 from stochmod.core.fields import array_field
 from stochmod.core.jit import compiled
 from stochmod.core.model import Model, augment_axes
-from stochmod.core.statespace import ContinuousBlock, compose_steps, discretise
+from stochmod.core.statespace import ContinuousBlock, compose_steps
 from stochmod.core.tables import format_table
 from stochmod.core.units import signal_unit
 from stochmod.nav import earth, frames
@@ -128,6 +128,9 @@ from stochmod.nav.smoother import (
     node_ranges,
 )
 from stochmod.nav.strapdown import Mechanisation, check_imu, imu_increments, mech_step
+
+_A, _E2, _OM = earth.A, earth.E2, earth.OMEGA_IE
+_G0, _G1, _G2 = earth.GRAVITY_G0, earth.GRAVITY_G1, earth.GRAVITY_G2
 
 __all__ = [
     "ERROR_MODELS",
@@ -748,27 +751,177 @@ def _sub_sample_states(F: np.ndarray, GQG: np.ndarray, dt: float) -> np.ndarray:
     return np.flatnonzero(alone & (-d * dt >= SUB_SAMPLE_POLE))
 
 
+@compiled(fastmath=frozenset())
 def _fill_error_dynamics(F: np.ndarray, lat: float, hgt: float, v: Sequence[float],
                          f_n: Sequence[float]) -> None:
     """Write the navigation block of the psi-angle model's F (module notes) into ``F[:9, :9]``
     at latitude `lat` (rad), height `hgt` (m), NED velocity `v` (m/s) and specific force `f_n`
-    (NED, m/s^2); ``F[0:3, 3:6]`` (the identity) is left as it is."""
-    vn, ve, vd = v
+    (NED, m/s^2), both tuples; ``F[0:3, 3:6]`` (the identity) is left as it is."""
+    vn, ve = v[0], v[1]
     sl, cl = math.sin(lat), math.cos(lat)
-    w = 1.0 - earth.E2 * sl * sl
-    re = earth.A / math.sqrt(w)
-    rn = re * (1.0 - earth.E2) / w
-    g = earth.GRAVITY_G0 * (1.0 + earth.GRAVITY_G1 * sl * sl - earth.GRAVITY_G2 * 4.0 * sl
-                            * sl * cl * cl) / (1.0 + hgt / math.sqrt(rn * re)) ** 2  # eq. 16
+    w = 1.0 - _E2 * sl * sl
+    re = _A / math.sqrt(w)
+    rn = re * (1.0 - _E2) / w
+    d = 1.0 + hgt / math.sqrt(rn * re)
+    g = _G0 * (1.0 + _G1 * sl * sl - _G2 * 4.0 * sl * sl * cl * cl) / (d * d)  # eq. 16
     r0 = math.sqrt(rn * re) + hgt
-    om = earth.OMEGA_IE
-    wen = (ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt))  # eq. 10
-    win = (om * cl + wen[0], wen[1], -om * sl + wen[2])  # eq. 9 + 10
-    cor = (win[0] + om * cl, win[1], win[2] - om * sl)
-    F[3:6, 0:3] = np.diag([-g / r0, -g / r0, 2 * g / r0])
-    F[3:6, 3:6] = -frames.skew(cor)
-    F[3:6, 6:9] = frames.skew(f_n)
-    F[6:9, 6:9] = -frames.skew(win)
+    om = _OM
+    wen0, wen1, wen2 = ve / (re + hgt), -vn / (rn + hgt), -ve * sl / cl / (re + hgt)  # eq. 10
+    win0, win1, win2 = om * cl + wen0, wen1, -om * sl + wen2  # eq. 9 + 10
+    F[3:6, 0:3] = 0.0
+    F[3, 0], F[4, 1], F[5, 2] = -g / r0, -g / r0, 2 * g / r0
+    # -[cor x], [f_n x], -[w_in x] with cor = w_in + w_ie
+    _skew_into(F, 3, 3, -(win0 + om * cl), -win1, -(win2 - om * sl))
+    _skew_into(F, 3, 6, f_n[0], f_n[1], f_n[2])
+    _skew_into(F, 6, 6, -win0, -win1, -win2)
+
+
+@compiled(fastmath=frozenset())
+def _skew_into(F: np.ndarray, r: int, c: int, x: float, y: float, z: float) -> None:
+    """``F[r:r+3, c:c+3] = [(x, y, z) x]``."""
+    F[r, c], F[r, c + 1], F[r, c + 2] = 0.0, -z, y
+    F[r + 1, c], F[r + 1, c + 1], F[r + 1, c + 2] = z, 0.0, -x
+    F[r + 2, c], F[r + 2, c + 1], F[r + 2, c + 2] = -y, x, 0.0
+
+
+@compiled(fastmath=frozenset())
+def _fill_noise_coupling(F: np.ndarray, W: np.ndarray, C: np.ndarray, psd: np.ndarray,
+                         H: np.ndarray) -> None:
+    """The attitude-dependent blocks of a covariance step: the white noise of the sensors in
+    NED, ``W[3:6, 3:6] = C diag(psd_a) C'`` and ``W[6:9, 6:9] = C diag(psd_g) C'``, and the
+    coupling of the sensor states, ``F[3:6, 9:] = -C H_a``, ``F[6:9, 9:] = C H_g``."""
+    ns = H.shape[1]
+    for i in range(3):
+        for j in range(3):
+            wa, wg = 0.0, 0.0
+            for k in range(3):
+                wa += C[i, k] * psd[3 + k] * C[j, k]
+                wg += C[i, k] * psd[k] * C[j, k]
+            W[3 + i, 3 + j], W[6 + i, 6 + j] = wa, wg
+        for j in range(ns):
+            fa, fg = 0.0, 0.0
+            for k in range(3):
+                fa += C[i, k] * H[3 + k, j]
+                fg += C[i, k] * H[k, j]
+            F[3 + i, 9 + j], F[6 + i, 9 + j] = -fa, fg
+
+
+@compiled(fastmath=frozenset())
+def _linearise(F: np.ndarray, W: np.ndarray, start: np.ndarray, x: np.ndarray, f0: float,
+               f1: float, f2: float, psd: np.ndarray, H: np.ndarray) -> None:
+    """F and W of a covariance step at its middle: :func:`midpoint_pva` of `start` (``lat, h,
+    v, q``) and the mechanisation's state vector `x`, then :func:`_fill_error_dynamics` with
+    the mean specific force ``(f0, f1, f2)`` and :func:`_fill_noise_coupling`."""
+    dot = 0.0
+    for i in range(4):
+        dot += start[5 + i] * x[6 + i]
+    sign = 1.0 if dot >= 0.0 else -1.0
+    q0, q1 = start[5] + sign * x[6], start[6] + sign * x[7]
+    q2, q3 = start[7] + sign * x[8], start[8] + sign * x[9]
+    nrm = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    q0, q1, q2, q3 = q0 * nrm, q1 * nrm, q2 * nrm, q3 * nrm
+    v = (0.5 * (start[2] + x[3]), 0.5 * (start[3] + x[4]), 0.5 * (start[4] + x[5]))
+    _fill_error_dynamics(F, 0.5 * (start[0] + x[0]), 0.5 * (start[1] + x[2]), v, (f0, f1, f2))
+    C = np.empty((3, 3))  # Gonzalez eq. 14, as frames.quat_to_dcm
+    C[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    C[0, 1], C[0, 2] = 2.0 * (q1 * q2 - q0 * q3), 2.0 * (q1 * q3 + q0 * q2)
+    C[1, 0], C[1, 2] = 2.0 * (q1 * q2 + q0 * q3), 2.0 * (q2 * q3 - q0 * q1)
+    C[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
+    C[2, 0], C[2, 1] = 2.0 * (q1 * q3 - q0 * q2), 2.0 * (q2 * q3 + q0 * q1)
+    C[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    _fill_noise_coupling(F, W, C, psd, H)
+
+
+@compiled(fastmath=frozenset())
+def _left_sparse(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+    """``out = A @ B`` summed over the nonzero entries of `A` only (the covariance step's
+    matrices are mostly zeros: the F of the 21-state filter has 60 of 441)."""
+    for i in range(A.shape[0]):
+        out[i, :] = 0.0
+        for k in range(A.shape[1]):
+            a = A[i, k]
+            if a != 0.0:
+                for j in range(B.shape[1]):
+                    out[i, j] += a * B[k, j]
+
+
+@compiled(fastmath=frozenset())
+def _scaled_series(F: np.ndarray, W: np.ndarray, dt: float, Phi: np.ndarray,
+                   Q: np.ndarray) -> bool:
+    """:func:`stochmod.core.statespace.discretise` (its sub-step, series and squarings, term
+    for term) into `Phi` and `Q`, its products over the nonzero entries of their left
+    factor; False when `F` or `W` holds a non-finite value."""
+    n = F.shape[0]
+    norm = 0.0
+    for j in range(n):
+        col = 0.0
+        for i in range(n):
+            col += abs(F[i, j])
+        norm = max(norm, col)
+    norm *= dt
+    if not (math.isfinite(norm) and np.isfinite(W).all()):
+        return False
+    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    h = math.ldexp(dt, -s)
+    a = 2.0 * math.ldexp(norm, -s)
+    K, bound = 1, a / 2.0
+    while bound > 1e-17:
+        K += 1
+        bound *= a / (K + 1)
+    A = F * h
+    X = np.empty((n, 2 * n))  # [A^k | U_(k-1)], both halves with the coefficient 1 / k!
+    X[:, :n] = A
+    X[:, n:] = W * h
+    acc = X.copy()
+    Y = np.empty((n, 2 * n))
+    c = 1.0
+    for k in range(2, K + 1):
+        _left_sparse(A, X, Y)
+        X, Y = Y, X
+        for i in range(n):
+            for j in range(i, n):
+                u = X[i, n + j] + X[j, n + i]
+                X[i, n + j] = u
+                X[j, n + i] = u
+        c /= k
+        acc += X * c
+    E = acc[:, :n].copy()  # Phi - I
+    Qs = acc[:, n:].copy()
+    EQ, EQE, EE = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    for _ in range(s):
+        _left_sparse(E, Qs, EQ)
+        _left_sparse(E, EQ.T, EQE)  # E (E Q)' = (E Q E')'
+        _left_sparse(E, E, EE)
+        Qs = 2.0 * Qs + EQ + EQ.T + EQE.T
+        E = 2.0 * E + EE
+    Phi[:, :] = E
+    for i in range(n):
+        Phi[i, i] += 1.0
+    Q[:, :] = 0.5 * (Qs + Qs.T)
+    return True
+
+
+def discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The covariance step's ``Phi = expm(F dt)`` and ``Q = int_0^dt expm(F s) W expm(F s)'
+    ds``: :func:`stochmod.core.statespace.discretise` compiled for the sparse F of the
+    filter (equal to it to rounding)."""
+    n = F.shape[0]
+    Phi, Q = np.empty((n, n)), np.empty((n, n))
+    if not _scaled_series(F, W, float(dt), Phi, Q):
+        raise InputError("the continuous model to discretise holds a non-finite value "
+                         "(a model parameter is infinite or NaN)")
+    return Phi, Q
+
+
+@compiled(fastmath=frozenset())
+def _predict(Phi: np.ndarray, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``Phi P Phi' + Q``, symmetrised (Gonzalez Alg. 1 lines 7-8)."""
+    T = np.empty(P.shape)
+    U = np.empty(P.shape)
+    _left_sparse(Phi, P, T)
+    _left_sparse(Phi, T.T, U)  # U' = T Phi'
+    out = U.T + Q
+    return 0.5 * (out + out.T)
 
 
 def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLike,
@@ -798,8 +951,8 @@ def error_dynamics(lat: float, height: float, vel_ned: ArrayLike, C_nb: ArrayLik
     """
     F = np.zeros((15, 15))
     F[0:3, 3:6] = np.eye(3)
-    _fill_error_dynamics(F, float(lat), float(height), np.asarray(vel_ned, float).tolist(),
-                         np.asarray(f_n, float).tolist())
+    _fill_error_dynamics(F, float(lat), float(height), tuple(np.asarray(vel_ned, float).tolist()),
+                         tuple(np.asarray(f_n, float).tolist()))
     C = np.asarray(C_nb, dtype=float)
     F[3:6, 12:15] = -C
     F[6:9, 9:12] = C
@@ -1129,19 +1282,12 @@ class _Run:
 
     # -------------------------------------------------------------- covariance propagation
     def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
-        mech, sens = self.mech, self.sens
-        lat, hgt, v, q = mech.lat, mech.h, mech.v, mech.q
-        lat, hgt, v, q = midpoint_pva(self._start, (lat, hgt, v, q))
-        C = frames.quat_to_dcm(q)
-        F = self._F
-        _fill_error_dynamics(F, lat, hgt, v, f_n)
-        W = self._W
-        W[3:6, 3:6] = (C * sens.psd[3:6]) @ C.T
-        W[6:9, 6:9] = (C * sens.psd[0:3]) @ C.T
+        sens = self.sens
+        lat, hgt, v, q = self._start
+        F, W = self._F, self._W
+        _linearise(F, W, np.array((lat, hgt, *v, *q)), self.mech.x, f_n[0], f_n[1], f_n[2],
+                   sens.psd, sens.H)
         ns = sens.n
-        if ns:
-            F[3:6, 9:] = -C @ sens.H[3:6]
-            F[6:9, 9:] = C @ sens.H[0:3]
         if sens.F is not None or not ns:
             Phi, Q = discretise(F, W, dt)
         else:
@@ -1152,8 +1298,7 @@ class _Run:
             Phi = _bdiag(Pnn, Pss)
             Phi[:9, 9:] = 0.5 * dt * (Pnn @ Fns + Fns @ Pss)
             Q = _bdiag(Qnn, Qss)
-        P = Phi @ self.P @ Phi.T + Q
-        P = 0.5 * (P + P.T)  # Alg. 1 line 8
+        P = _predict(Phi, self.P, Q)
         if self.store is not None:
             self.store.step(self.P, Phi, P, self.n_epochs)
         self.P = P
@@ -1357,7 +1502,7 @@ class _Run:
     def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
         mech = self.mech
         self._start = (mech.lat, mech.h, mech.v, mech.q)  # the next covariance step's start
-        epochs.append((self.t_now, np.sqrt(np.clip(np.diag(self.P), 0, None)), self.s.copy(),
+        epochs.append((self.t_now, np.sqrt(np.maximum(self.P.diagonal(), 0.0)), self.s.copy(),
                        self.corr.copy()))
         epoch_rows.append(row)
         nav_P.append(self.P[:9, :9].copy())
