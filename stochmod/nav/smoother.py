@@ -35,9 +35,11 @@ filter step like the covariance step itself.
 
 from __future__ import annotations
 
-import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
+import math
 
+import numpy as np
+
+from stochmod.core.jit import compiled
 from stochmod.nav import earth, frames
 
 __all__ = ["SmootherStore", "correct_rows", "interpolate_errors", "node_ranges"]
@@ -85,18 +87,13 @@ class SmootherStore:
     def step(self, P: np.ndarray, Phi: np.ndarray, P_pred: np.ndarray, epoch: int) -> None:
         """Close the open node (covariance `P`) with the step ``Phi`` to the prediction
         `P_pred` of the node it opens for `epoch`: ``C = P Phi' P_pred^-1``, ``M = P - C Phi P``."""
-        PhiP = Phi @ P
-        d = np.sqrt(np.diag(P_pred))
-        d = np.where(d > 0.0, d, 1.0)
-        try:  # scaled to unit diagonal: state variances span 20 decades
-            Ct = cho_solve(cho_factor(P_pred / np.outer(d, d)), PhiP / d[:, None]) / d[:, None]
-        except (LinAlgError, ValueError):
-            Ct = np.linalg.lstsq(P_pred, PhiP, rcond=None)[0]
-        C = Ct.T
-        M = P - C @ PhiP
         j = self.j
-        self.C[j] = C
-        self.M[j] = 0.5 * (M + M.T)
+        if not _gain(P, Phi, P_pred, self.C[j], self.M[j]):  # P_pred not positive definite
+            PhiP = Phi @ P
+            C = np.linalg.lstsq(P_pred, PhiP, rcond=None)[0].T
+            M = P - C @ PhiP
+            self.C[j] = C
+            self.M[j] = 0.5 * (M + M.T)
         self._open(epoch)
 
     def inflate(self, P: np.ndarray, lam: float, epoch: int) -> None:
@@ -164,6 +161,67 @@ class SmootherStore:
             nav[j] = S[:k, :k]
             u[j] = self.delta[j] + _undo_resets(self.dv[j], s[j])
         return s, u, sd, nav
+
+
+@compiled(fastmath=frozenset())
+def _gain(P: np.ndarray, Phi: np.ndarray, P_pred: np.ndarray, C: np.ndarray,
+          M: np.ndarray) -> bool:
+    """The smoother gain ``C = P Phi' P_pred^-1`` and ``M = P - C Phi P`` (symmetrised) into
+    `C` and `M`, by the Cholesky factor of `P_pred` scaled to unit diagonal (state variances
+    span 20 decades); False, with `C` and `M` unset, when that is not positive definite."""
+    n = P.shape[0]
+    PhiP = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            a = Phi[i, k]
+            if a != 0.0:
+                for j in range(n):
+                    PhiP[i, j] += a * P[k, j]
+    d = np.empty(n)
+    for i in range(n):
+        v = math.sqrt(P_pred[i, i]) if P_pred[i, i] > 0.0 else 0.0
+        d[i] = v if v > 0.0 else 1.0
+    L = np.zeros((n, n))  # lower Cholesky factor of P_pred / (d d')
+    for j in range(n):
+        acc = P_pred[j, j] / (d[j] * d[j])
+        for k in range(j):
+            acc -= L[j, k] * L[j, k]
+        if not acc > 0.0:
+            return False
+        ljj = math.sqrt(acc)
+        L[j, j] = ljj
+        for i in range(j + 1, n):
+            acc = P_pred[i, j] / (d[i] * d[j])
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / ljj
+    X = np.empty((n, n))  # (P_pred / (d d')) X = PhiP / d, column by column
+    for c in range(n):
+        for i in range(n):
+            acc = PhiP[i, c] / d[i]
+            for k in range(i):
+                acc -= L[i, k] * X[k, c]
+            X[i, c] = acc / L[i, i]
+        for i in range(n - 1, -1, -1):
+            acc = X[i, c]
+            for k in range(i + 1, n):
+                acc -= L[k, i] * X[k, c]
+            X[i, c] = acc / L[i, i]
+    for i in range(n):
+        for c in range(n):
+            C[c, i] = X[i, c] / d[i]  # C = (P_pred^-1 Phi P)'
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += C[i, k] * PhiP[k, j]
+            M[i, j] = P[i, j] - acc
+    for i in range(n):
+        for j in range(i + 1, n):
+            u = 0.5 * (M[i, j] + M[j, i])
+            M[i, j] = u
+            M[j, i] = u
+    return True
 
 
 def _undo_resets(dv: np.ndarray, e: np.ndarray) -> np.ndarray:
