@@ -209,10 +209,14 @@ def long_record(hours: float, seed: int = 0) -> np.ndarray:
     return data
 
 
-def long_child(hours: float) -> None:
+def long_child(hours: float, spectra_bytes: int | None) -> None:
     """Part 2 in this (fresh) process; prints one JSON line."""
     import stochmod
+    import stochmod.empirical.wv_covariance as covariance
     from stochmod.io.recording import Recording
+
+    if spectra_bytes is not None:
+        covariance.SPECTRA_BYTES = spectra_bytes
 
     data = long_record(hours)
     rec = Recording(data, LONG_COLUMNS, LONG_FREQ, units=("rad/s",) * 3 + ("m/s^2",) * 3)
@@ -231,9 +235,11 @@ def long_child(hours: float) -> None:
                       "models": {a.column: a.model.name for a in cal.axes}}))
 
 
-def long_part(hours: float, t_at: float) -> None:
-    """Part 2: the long record in a fresh process."""
-    proc = subprocess.run([sys.executable, __file__, "--long-child", str(hours)],
+def long_part(hours: float, t_at: float, spectra_bytes: int | None = None) -> None:
+    """Part 2: the long record in a fresh process (`spectra_bytes`: the covariance's budget
+    of level spectra, :data:`stochmod.empirical.wv_covariance.SPECTRA_BYTES`)."""
+    extra = [] if spectra_bytes is None else ["--spectra-bytes", str(spectra_bytes)]
+    proc = subprocess.run([sys.executable, __file__, "--long-child", str(hours), *extra],
                           check=False, capture_output=True, text=True, cwd=Path(__file__).parent)
     if proc.returncode != 0:
         sys.exit(f"the long-record run failed:\n{proc.stderr}")
@@ -241,7 +247,8 @@ def long_part(hours: float, t_at: float) -> None:
     mb = r["nbytes"] / 2**20
     extra = r["peak"] - r["base"]
     print(f"\n2. stochmod.calibrate of {hours:g} h at {LONG_FREQ:g} Hz x 6 axes ({r['n']:,} samples "
-          f"a column, {mb:.0f} MB of input, SI, no figures), in a fresh process")
+          f"a column, {mb:.0f} MB of input, SI, no figures), in a fresh process"
+          + ("" if spectra_bytes is None else f", covariance spectra budget {spectra_bytes:,} B"))
     for stage, sec in sorted(r["stages"].items()):
         print(f"   {stage:34s} {sec:9.2f} s")
     print(f"   total {r['seconds']:.1f} s ({r['seconds'] / t_at:.1f}x the peer; target 30 s), "
@@ -292,10 +299,13 @@ def main() -> None:
     p.add_argument("--split", default="Gyro_X", metavar="COLUMN",
                    help="the column of the serial stage split (default Gyro_X)")
     p.add_argument("--profile", type=int, default=0, metavar="N")
+    p.add_argument("--spectra-bytes", type=int, default=None, metavar="B",
+                   help="part 2 with this budget of the covariance's level spectra (default "
+                        "the library's; a large one holds all levels at once)")
     p.add_argument("--long-child", type=float, default=None, help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.long_child is not None:
-        long_child(args.long_child)
+        long_child(args.long_child, args.spectra_bytes)
         return
     if not FILE.is_file():
         sys.exit(f"the recording {FILE} is absent")
@@ -303,7 +313,7 @@ def main() -> None:
     print(f"peer: allantools oadev(taus='octave') of the file's six columns, {t_at:.2f} s "
           "(the unit of 'x peer')\n")
     if not args.skip_long:  # first: a fresh process, before this one holds the file
-        long_part(args.hours, t_at)
+        long_part(args.hours, t_at, args.spectra_bytes)
         print()
     clock = StageClock()
     install(clock)
