@@ -204,7 +204,8 @@ def axis_figure(axis: ReportAxis) -> Any:
                             model_adev=np.sqrt(2 * b.model_wv)), ax2)
     ax2.set_title("Allan deviation", fontsize="medium")
     fig.suptitle(f"{axis.column}: {b.model.name}")
-    fig.tight_layout()
+    # fixed margins (tight_layout measures every text first: a second layout pass)
+    fig.subplots_adjust(left=0.08, right=0.985, bottom=0.14, top=0.86, wspace=0.28)
     return fig
 
 
