@@ -908,9 +908,28 @@ def discretise(F: np.ndarray, W: np.ndarray, dt: float) -> tuple[np.ndarray, np.
     n = F.shape[0]
     Phi, Q = np.empty((n, n)), np.empty((n, n))
     if not _scaled_series(F, W, float(dt), Phi, Q):
-        raise InputError("the continuous model to discretise holds a non-finite value "
-                         "(a model parameter is infinite or NaN)")
+        raise InputError(_NON_FINITE)
     return Phi, Q
+
+
+_NON_FINITE = ("the continuous model to discretise holds a non-finite value (a model parameter "
+               "is infinite or NaN)")
+#: The filter's own :func:`discretise` (a caller may replace the module's name by a wrapper:
+#: the covariance step then calls that instead of its compiled whole).
+_OWN_DISCRETISE = discretise
+
+
+@compiled(fastmath=frozenset())
+def _covariance_step(F: np.ndarray, W: np.ndarray, start: np.ndarray, x: np.ndarray, f0: float,
+                     f1: float, f2: float, psd: np.ndarray, H: np.ndarray, dt: float,
+                     P: np.ndarray, Phi: np.ndarray, Q: np.ndarray) -> tuple:
+    """One covariance step in one call: :func:`_linearise`, :func:`discretise` into `Phi` and
+    `Q`, and :func:`_predict` from `P`. Returns ``(predicted P, False when F or W holds a
+    non-finite value)``."""
+    _linearise(F, W, start, x, f0, f1, f2, psd, H)
+    if not _scaled_series(F, W, dt, Phi, Q):
+        return P, False
+    return _predict(Phi, P, Q), True
 
 
 @compiled(fastmath=frozenset())
@@ -1284,10 +1303,32 @@ class _Run:
     def _propagate(self, dt: float, m: int, f_n: tuple[float, float, float]) -> None:
         sens = self.sens
         lat, hgt, v, q = self._start
-        F, W = self._F, self._W
-        _linearise(F, W, np.array((lat, hgt, *v, *q)), self.mech.x, f_n[0], f_n[1], f_n[2],
-                   sens.psd, sens.H)
-        ns = sens.n
+        F, W, n, ns = self._F, self._W, self.n, sens.n
+        start = np.array((lat, hgt, *v, *q))
+        exact = sens.F is not None or not ns  # Van Loan over the whole F
+        if exact and discretise is _OWN_DISCRETISE:
+            Phi, Q = np.empty((n, n)), np.empty((n, n))
+            P, finite = _covariance_step(F, W, start, self.mech.x, f_n[0], f_n[1], f_n[2],
+                                         sens.psd, sens.H, dt, self.P, Phi, Q)
+            if not finite:
+                raise InputError(_NON_FINITE)
+        else:
+            Phi, P = self._step_parts(start, dt, m, f_n)
+        if self.store is not None:
+            self.store.step(self.P, Phi, P, self.n_epochs)
+        self.P = P
+        if ns:  # nominal sensor errors follow their mean dynamics
+            self.s = Phi[9:, 9:] @ self.s
+            self.corr = sens.H @ self.s
+        if not math.isfinite(float(self.P.sum())):
+            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+
+    def _step_parts(self, start: np.ndarray, dt: float, m: int, f_n: tuple) -> tuple:
+        """The covariance step by its parts (a discrete-only sensor block, or a replaced
+        :func:`discretise`): the transition and the predicted P."""
+        sens = self.sens
+        F, W, ns = self._F, self._W, sens.n
+        _linearise(F, W, start, self.mech.x, f_n[0], f_n[1], f_n[2], sens.psd, sens.H)
         if sens.F is not None or not ns:
             Phi, Q = discretise(F, W, dt)
         else:
@@ -1298,15 +1339,7 @@ class _Run:
             Phi = _bdiag(Pnn, Pss)
             Phi[:9, 9:] = 0.5 * dt * (Pnn @ Fns + Fns @ Pss)
             Q = _bdiag(Qnn, Qss)
-        P = _predict(Phi, self.P, Q)
-        if self.store is not None:
-            self.store.step(self.P, Phi, P, self.n_epochs)
-        self.P = P
-        if ns:  # nominal sensor errors follow their mean dynamics
-            self.s = Phi[9:, 9:] @ self.s
-            self.corr = sens.H @ self.s
-        if not math.isfinite(float(self.P.sum())):
-            raise EstimationError(f"filter covariance became non-finite at t = {self.t_now:.6g} s")
+        return Phi, _predict(Phi, self.P, Q)
 
     # -------------------------------------------------------------- updates
     def _snapshot(self, tm: float, prev: tuple, w_nb: np.ndarray) -> Snapshot:
