@@ -9,7 +9,7 @@ process, best of 2 each:
 - rosbags: the bare loop ``for conn, t, raw in reader.messages(...): reader.deserialize(raw, ...)``
   that every rosbags user writes, keeping nothing.
 
-The target (issue 12) is a ratio within 2x. Timings on a shared machine are noisy.
+The target is a ratio within 2x. Timings on a shared machine are noisy.
 """
 
 from __future__ import annotations
