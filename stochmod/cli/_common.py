@@ -13,7 +13,7 @@ import numpy as np
 from stochmod.core.checks import check_freq
 from stochmod.core.errors import InputError
 from stochmod.core.jsonable import to_jsonable
-from stochmod.io.recording import Recording, column_replicates, read_recording
+from stochmod.io.recording import Recording, column_replicates, longest_segment, read_recording
 from stochmod.io.sensors import check_static_magnitudes, declare_units
 
 #: Relative difference between --freq and the time stamps' rate that is a contradiction.
@@ -100,13 +100,6 @@ def gap_free_segments(rec: Recording) -> list[Recording]:
           + (f"; {dropped} samples in segments shorter than {MIN_SEGMENT} dropped)" if dropped
              else ")"), file=sys.stderr)
     return kept
-
-
-def longest_segment(pieces: list[Recording]) -> Recording:
-    """The longest of the gap-free `pieces` (``Recording.segments``): the data of the
-    subcommands that do not pool segments (``allan``, ``psd``, ``ar``, ``denoise``) and of
-    calibrate's Allan reading and validation bands."""
-    return max(pieces, key=lambda r: r.data.shape[0])
 
 
 def _read(args: argparse.Namespace, to_si: bool, path: str | None = None

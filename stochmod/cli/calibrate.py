@@ -29,7 +29,7 @@ from stochmod.empirical.allan_reading import AllanReading
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult
 from stochmod.fit.verdict import verdict
-from stochmod.io.recording import Recording
+from stochmod.io.recording import Recording, longest_segment
 from stochmod.output.datasheet import datasheet_reading
 from stochmod.workflows.calibrate import (
     CalibrationRun,
@@ -360,7 +360,7 @@ def select_unit_column(args: argparse.Namespace, unit: UnitInput, k: int,
     datasheet."""
     result = select_column(unit.segments, unit.freq, k, executor=executor,
                            **selection_options(args))
-    rec = max(unit.segments, key=lambda r: r.data.shape[0])
+    rec = longest_segment(unit.segments)
     if rec.declared[k].kind not in SENSORS:
         return ColumnResult(result, None)
     with executor.stage("allan"):

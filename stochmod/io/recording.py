@@ -415,3 +415,10 @@ def column_replicates(segments: Sequence[Recording], k: int) -> np.ndarray | lis
     signals (replicates for :func:`stochmod.gmwm` and :func:`stochmod.select`)."""
     xs = [s.data[:, k] for s in segments]
     return xs[0] if len(xs) == 1 else xs
+
+
+def longest_segment(pieces: Sequence[Recording]) -> Recording:
+    """The longest of a recording's gap-free `pieces` (:meth:`Recording.segments`): the data
+    of what does not pool segments (the Allan, PSD, AR and de-noising commands, calibrate's
+    Allan reading and validation bands)."""
+    return max(pieces, key=lambda r: r.data.shape[0])

@@ -25,7 +25,7 @@ from stochmod.fit.equivalence import FinalFit, replace_equivalents
 from stochmod.fit.selection import SelectionResult, select
 from stochmod.fit.verdict import verdict
 from stochmod.io.calibration import AxisCalibration, Calibration
-from stochmod.io.recording import Recording, column_replicates
+from stochmod.io.recording import Recording, column_replicates, longest_segment
 from stochmod.io.sensors import check_static_magnitudes, declare_units
 from stochmod.output.datasheet import Datasheet, datasheet, datasheet_reading
 
@@ -188,7 +188,7 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
     extra : mapping, optional
         Further JSON-safe content of the calibration (``scale``, ``replicates`` ...).
     """
-    rec = max(segments, key=lambda r: r.data.shape[0])
+    rec = longest_segment(segments)
     dt = 1.0 / freq if dt is None else float(dt)
     if not dt > 0:
         raise InputError(f"the filter step dt must be a positive number of seconds, got {dt!r}")
