@@ -99,7 +99,7 @@ def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: l
 
     data = run_.record.data
     axes = []
-    for k, (sel, fin) in enumerate(zip(run_.selections, run_.finals)):
+    for k, (sel, fin, judged) in enumerate(zip(run_.selections, run_.finals, run_.verdicts)):
         sheet = run_.datasheets[sel.column]
         # the WV bands (the report shows no PSD), from the figure's simulations when drawn
         bands = validate(sel.best, data[:, k], R=args.n_sim, rng=args.seed, psd=False)
@@ -108,7 +108,7 @@ def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: l
                  if exported else None)
         axes.append(ReportAxis(sel.column, sel, sheet, bands,
                                note="" if not run_.triads else "model structure chosen per triad",
-                               final=fin, noise=noise))
+                               final=fin, noise=noise, verdict=judged))
     exports = {p.name: p.read_text() for p in exported}
     path = write_report(out / "report.html", axes, title=title, exports=exports,
                         triads=run_.triads)

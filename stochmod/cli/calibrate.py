@@ -28,7 +28,6 @@ from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
 from stochmod.empirical.allan_reading import AllanReading
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult
-from stochmod.fit.verdict import verdict
 from stochmod.io.recording import Recording, longest_segment
 from stochmod.output.datasheet import datasheet_reading
 from stochmod.workflows.calibrate import (
@@ -449,12 +448,12 @@ def _console(run_: CalibrationRun, args: argparse.Namespace, samples: str) -> st
     crit = run_.selections[0].criterion if run_.selections else "-"
     lines = [(f"stochmod calibrate: {cal.source or 'the bundled example'} ({samples} x "
              f"{len(cal.axes)} column(s) at {cal.freq:g} Hz); selected by {crit}")]
-    for axis, sel, fin in zip(cal.axes, run_.selections, run_.finals):
+    for axis, sel, fin, judged in zip(cal.axes, run_.selections, run_.finals, run_.verdicts):
         declared = (cal.extra.get("units") or {}).get("declared") or {}
         source = (declared.get(axis.column) or {}).get("source")
         unit = f"{axis.unit or 'unit unknown'}" + (" (assumed)" if source == "assumed" else "")
         lines += ["", f"{axis.column} ({axis.kind}, {unit}): {axis.model.name}",
-                  f"  verdict: {verdict(sel.best, candidates=sel.ranking).summary()}"]
+                  f"  verdict: {judged.summary()}"]
         for r in fin.replacements:
             lines.append(f"  fitted {fin.fitted.model.name}: {r.summary()}")
         sheet = run_.datasheets.get(axis.column)

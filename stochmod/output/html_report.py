@@ -37,7 +37,7 @@ from stochmod.core.units import BI_FACTOR, convert
 from stochmod.fit.equivalence import FinalFit
 from stochmod.fit.selection import SelectionResult
 from stochmod.fit.validation import ValidationBands
-from stochmod.fit.verdict import verdict
+from stochmod.fit.verdict import Verdict, verdict
 from stochmod.output.datasheet import Datasheet
 from stochmod.output.exports import AxisNoise
 
@@ -83,6 +83,8 @@ class ReportAxis:
         The final fit and what it replaced of the fit as selected.
     noise : AxisNoise, optional
         The exported white density and random walk (when exports were written).
+    verdict : Verdict, optional
+        The verdict of the final fit, when made already (else the report makes it).
     """
 
     column: str
@@ -92,6 +94,7 @@ class ReportAxis:
     note: str = ""
     final: FinalFit | None = None
     noise: AxisNoise | None = None
+    verdict: Verdict | None = None
 
 
 def _cell(value: Any, i: int) -> str:
@@ -251,7 +254,7 @@ def summary_rows(axes: Sequence[ReportAxis]) -> tuple[list[str], list[list[str]]
                 sigma = ds.row(f"{label} sigma")
                 terms.append(f"{html.escape(label)}: Tc = {_value(r.model, 's')}, "
                              f"sigma = {_value(sigma.model, sigma.unit)}")
-        v = verdict(sel.best, candidates=sel.ranking)
+        v = a.verdict if a.verdict is not None else verdict(sel.best, candidates=sel.ranking)
         if v.pvalue is None:
             word = "not tested"
         else:

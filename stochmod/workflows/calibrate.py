@@ -23,7 +23,7 @@ from stochmod.core.units import SENSORS, parse_unit
 from stochmod.empirical.allan_reading import AllanReading
 from stochmod.fit.equivalence import FinalFit, replace_equivalents
 from stochmod.fit.selection import SelectionResult, select
-from stochmod.fit.verdict import verdict
+from stochmod.fit.verdict import Verdict, verdict
 from stochmod.io.calibration import AxisCalibration, Calibration
 from stochmod.io.recording import Recording, column_replicates, longest_segment
 from stochmod.io.sensors import check_static_magnitudes, declare_units
@@ -50,6 +50,8 @@ class CalibrationRun:
         Per gyro or accelerometer column.
     record : Recording
         The longest gap-free segment (the data of the datasheet's Allan reading).
+    verdicts : tuple of Verdict
+        Per column, of the final fit against the selection's candidates.
     """
 
     calibration: Calibration
@@ -58,6 +60,7 @@ class CalibrationRun:
     triads: tuple[Any, ...]
     datasheets: dict[str, Datasheet]
     record: Recording
+    verdicts: tuple[Verdict, ...]
 
 
 def column_unit(rec: Recording, k: int) -> str | None:
@@ -139,7 +142,7 @@ def _safe(fn: Any) -> Any:
         return None
 
 
-def _details(sel: SelectionResult, final: FinalFit) -> dict[str, Any]:
+def _details(sel: SelectionResult, final: FinalFit, judged: Verdict) -> dict[str, Any]:
     """The JSON-safe results of one column (:attr:`AxisCalibration.details`)."""
     best = final.final
     params, phys, jt = _safe(best.parameters), _safe(best.physical), best.jtest
@@ -153,7 +156,7 @@ def _details(sel: SelectionResult, final: FinalFit) -> dict[str, Any]:
         "weighting": sel.weighting,
         "ranking": [attrs.asdict(r) for r in sel.ranking],
         "robust": sel.empirical.robust_info(),
-        "verdict": verdict(best, candidates=sel.ranking).to_dict(),
+        "verdict": judged.to_dict(),
     }
 
 
@@ -219,9 +222,10 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
                 reading = datasheet_reading(rec.data[:, k], freq, units[sel.column])
             sheets[sel.column] = datasheet(sel.best, units[sel.column], column=sel.column,
                                            reading=reading)
+    verdicts = tuple(verdict(s.best, candidates=s.ranking) for s in selections)
     axes = []
-    for k, (sel, fin) in enumerate(zip(selections, finals)):
-        details = _details(sel, fin)
+    for k, (sel, fin, judged) in enumerate(zip(selections, finals, verdicts)):
+        details = _details(sel, fin, judged)
         if sel.column in sheets:
             details["datasheet"] = sheets[sel.column].to_dict()
         axes.append(AxisCalibration(sel.column, _kind(rec, k), units[sel.column],
@@ -239,7 +243,7 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
                                for s in segments]
     calibration = Calibration(axes, float(freq), dt, sum(sizes), rec.path, sizes, content)
     return CalibrationRun(calibration, tuple(selections), tuple(finals), tuple(triads), sheets,
-                          rec)
+                          rec, verdicts)
 
 
 def calibrate(recording: Recording | Sequence[Recording], *, freq: float | None = None,
