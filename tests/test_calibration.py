@@ -198,3 +198,18 @@ def test_calibrate_command_converts_a_files_units_once(tmp_path) -> None:
     # white noise of sd 0.1 deg/s per sample at 100 Hz: ARW 0.1 deg/s * sqrt(0.01 s) = 0.6 deg/sqrt(h)
     arw = {r["quantity"]: r for r in gx.details["datasheet"]["summary"]}["white noise density (ARW)"]
     assert arw["model"] == pytest.approx(sd_deg * math.sqrt(1.0 / FREQ) * 60.0, rel=0.03)
+
+
+@pytest.mark.parametrize("pooled", [False, True])
+def test_calibrate_command_checks_magnitudes_once_on_every_path(tmp_path, capsys, pooled) -> None:
+    """deg/s data declared rad/s are refused by the library's prepare(), for one file and for
+    --pooled replicates alike (the command itself no longer checks)."""
+    from stochmod.cli import main
+
+    rng = np.random.default_rng(0)
+    path = tmp_path / "gyro.npz"
+    np.savez(path, freq=FREQ, **{f"gyro_{a}": rng.normal(0.0, 5.0, 20_000) for a in "xyz"})
+    files = [str(path), str(path), "--pooled"] if pooled else [str(path)]
+    assert main(["calibrate", *files, "--gyro-unit", "rad/s", "--no-plots",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert "the data look like deg/s" in capsys.readouterr().err

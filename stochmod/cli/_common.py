@@ -14,7 +14,7 @@ from stochmod.core.checks import check_freq
 from stochmod.core.errors import InputError
 from stochmod.core.jsonable import to_jsonable
 from stochmod.io.recording import Recording, column_replicates, longest_segment, read_recording
-from stochmod.io.sensors import check_static_magnitudes, declare_units
+from stochmod.io.sensors import declare_units
 
 #: Relative difference between --freq and the time stamps' rate that is a contradiction.
 FREQ_TOLERANCE = 0.01
@@ -113,12 +113,11 @@ def _read(args: argparse.Namespace, to_si: bool, path: str | None = None
         t = rec.timing
         print(f"{path}: {t.n} samples at {t.rate:.6g} Hz from the time stamps, "
               f"{len(t.gaps)} gap(s), jitter rms {t.jitter_rms:.3g} s", file=sys.stderr)
-    calibrating = getattr(args, "require_units", False)  # the main job: units, magnitudes
+    # the main job needs every unit (its magnitudes are checked by workflows.calibrate.prepare)
+    calibrating = getattr(args, "require_units", False)
     rec = declared_recording(rec, args, required=calibrating)
     if to_si:
         rec = rec.to_si()
-        if calibrating:
-            check_static_magnitudes(rec.data, rec.declared)
     if args.freq is not None and rec.timing is not None:
         rate = rec.timing.rate
         if abs(args.freq - rate) > FREQ_TOLERANCE * rate:

@@ -240,7 +240,7 @@ def _replicates(args: argparse.Namespace) -> tuple[list[list[Recording]], float]
 def _run_pooled(args: argparse.Namespace) -> int:
     """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
     files, freq = _replicates(args)
-    segments = _scaled(args, [s for segs in files for s in segs])
+    segments = _scaled(args, prepare([s for segs in files for s in segs]))
     dt = _dt(args, freq)
     sizes = [sum(int(s.data.shape[0]) for s in segs) for segs in files]
     options = selection_options(args)
