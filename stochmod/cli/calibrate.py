@@ -20,7 +20,7 @@ from stochmod.cli import FLEET_WARM_MODULE
 from stochmod.cli import _calibrate_outputs as extras
 from stochmod.cli._common import add_input_arguments, declared_recording, load_segments, print_json
 from stochmod.cli.select import add_selection_arguments, selection_options
-from stochmod.core.errors import InputError
+from stochmod.core.errors import EstimationError, InputError
 from stochmod.core.parallel import process_pool, single_threaded_blas
 from stochmod.core.tables import format_table
 from stochmod.core.units import SENSORS
@@ -479,7 +479,7 @@ def _parameters(fit: GMWMResult, unit: str | None) -> str:
     rows = []
     try:
         physical = fit.physical()
-    except Exception:  # noqa: BLE001 - a fit that is not identified has no intervals
+    except EstimationError:  # a fit that is not identified has no intervals
         physical = []
     for e in physical:
         shown = re.sub(r"\bu\b", f"({unit})", e.unit) if unit else e.unit

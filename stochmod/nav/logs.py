@@ -335,7 +335,7 @@ def read_calibration(path: str | Path) -> dict[str, Model]:
         key = axis.column.strip().lower()
         if key in by_axis:
             raise InputError(f"{path}: axis {key!r} appears more than once (case-insensitive)")
-        wanted = SENSORS.get(key.split("_")[0])
+        wanted = SENSORS.get(axis.kind)
         if wanted is not None and axis.unit not in (None, wanted):
             raise InputError(f"{path}: the model of {axis.column!r} is in {axis.unit}, not "
                              f"{wanted}: the navigation filter needs SI models")
