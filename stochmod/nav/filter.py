@@ -1514,23 +1514,57 @@ class _Run:
             self._propagate(elapsed, m, (acc[0] / elapsed, acc[1] / elapsed, acc[2] / elapsed))
             x[21:24] = 0.0
             if due:
-                hk = float(h[k])
-                cg0, cg1, cg2 = corr[:3].tolist()
-                a_ = dth[k].tolist()
-                d_th = (a_[0] - cg0 * hk, a_[1] - cg1 * hk, a_[2] - cg2 * hk)
-                C = frames.quat_to_dcm(mech.q)
-                w_nb = np.array(d_th) / hk - C.T @ np.array(mech.w_in)
                 p = prev.tolist()
-                before = (p[0], p[1], p[2], (p[3], p[4], p[5]))
+                batch = []
                 while ie < ne and events[ie][0] <= tk + 1e-9:
-                    self.t_meas = events[ie][0]
-                    self._update(events[ie][2], self._snapshot(events[ie][0], before, w_nb))
+                    batch.append(events[ie][::2])
                     ie += 1
+                self._epoch_updates(batch, (p[0], p[1], p[2], (p[3], p[4], p[5])), dth[k],
+                                    float(h[k]), corr)
                 self._check_psd()
                 rows[k + 1] = x[:10]  # the state after the feedback
             k += 1
             self._record(epochs, epoch_rows, nav_P, k)
         return self._result(rows, epochs, epoch_rows, nav_P)
+
+    def _epoch_updates(self, batch: list[tuple[float, Measurement]], before: tuple,
+                       dth: np.ndarray, hk: float, corr: np.ndarray) -> None:
+        """The updates of the measurements `batch` (``(t_m, measurement)`` in order) that fall
+        in the IMU interval just integrated, ``(t_k-1, t_k]`` of `hk` seconds with angle
+        increment `dth` and gyro correction `corr`; `before` is the position and velocity at
+        ``t_k-1`` (lat, lon rad, height m, NED velocity m/s).
+
+        Each measurement is predicted from the state updated by the ones before it (sequential
+        updates, Bar-Shalom, Li & Kirubarajan 2001, Section 3.4; Gonzalez Alg. 1-2 per
+        measurement): the estimate at ``t_m`` is interpolated between ``t_k-1`` and ``t_k``, so
+        after each feedback, which corrects the state at ``t_k``, the state at ``t_k-1`` takes
+        the same correction (the same error estimate, to first order in the IMU step), and the
+        body rate the corrected attitude and gyro bias. Without it a GNSS velocity following
+        the position of the same fix would be predicted with only the share ``(t_m -
+        t_k-1) / hk`` of the velocity correction that the position update just applied.
+        """
+        mech = self.mech
+        w_nb = self._body_rate(dth, hk, corr)
+        for n, (tm, meas) in enumerate(batch):
+            self.t_meas = tm
+            lat0, lon0, h0, (v0, v1, v2) = mech.lat, mech.lon, mech.h, mech.v
+            self._update(meas, self._snapshot(tm, before, w_nb))
+            if n + 1 < len(batch):
+                vn, ve, vd = mech.v
+                before = (before[0] + (mech.lat - lat0), before[1] + (mech.lon - lon0),
+                          before[2] + (mech.h - h0),
+                          (before[3][0] + (vn - v0), before[3][1] + (ve - v1),
+                           before[3][2] + (vd - v2)))
+                w_nb = self._body_rate(dth, hk)
+
+    def _body_rate(self, dth: np.ndarray, hk: float, corr: np.ndarray | None = None
+                   ) -> np.ndarray:
+        """Body rate relative to the NED frame over the last IMU interval (rad/s, body axes):
+        the angle increment `dth` (rad) over `hk` seconds less the gyro correction `corr`
+        (default: the current one), less the NED frame's rate ``C_bn w_in``."""
+        corr = self.corr if corr is None else corr
+        g = (np.asarray(dth, dtype=float) - corr[:3] * hk) / hk
+        return g - frames.quat_to_dcm(self.mech.q).T @ np.array(self.mech.w_in)
 
     def _record(self, epochs: list, epoch_rows: list, nav_P: list, row: int) -> None:
         mech = self.mech

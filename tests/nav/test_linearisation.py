@@ -120,3 +120,48 @@ def test_a_fix_between_imu_epochs_measures_the_error_at_its_own_time():
     # the residual (measured 1.2e-6 m/s): R / (lag^2 sigma_v^2) of it and the O(lag^2) terms
     # of the transition over the lag
     np.testing.assert_allclose(np.array(run.mech.v), 0.0, atol=1e-5)
+
+
+def test_the_velocity_of_a_fix_is_predicted_from_the_state_its_position_corrected():
+    """A vehicle at rest, estimated moving at DV (m/s) for T seconds, so its position error
+    DV T is fully correlated with its velocity error. An exact position fix at LAG before the
+    filter epoch t_k reveals both, and the feedback corrects the state at t_k; the velocity of
+    the same fix is then predicted from the corrected state, interpolated between t_k-1 and t_k
+    as the fix falls inside the IMU interval: its innovation is (almost) zero. Interpolated from
+    the uncorrected state at t_k-1, it would be (1 - (t_m - t_k-1) / h) DV = 0.9 DV, and the
+    update would push the velocity off by that much of its gain."""
+    import stochmod.nav.filter as nf
+    from stochmod.nav import earth
+    from stochmod.nav.measurements import GnssPosition, GnssVelocity
+
+    lat, lon, hgt = 37.3, -122.1, 40.0
+    dv, h, lag, T = np.array([1.0, -0.5, 0.2]), 0.01, 0.009, 10.0  # m/s, s, s, s
+    rn, re = (float(r) for r in earth.principal_radii(np.radians(lat)))
+
+    def moved(d: np.ndarray) -> tuple[float, float, float]:
+        """The truth offset by the NED error `d` (m): lat, lon (rad), height (m)."""
+        return (np.radians(lat) + d[0] / (rn + hgt),
+                np.radians(lon) + d[1] / ((re + hgt) * np.cos(np.radians(lat))), hgt - d[2])
+
+    at_k = moved(dv * T)
+    flt = LooselyCoupledFilter(GYRO, ACCEL)
+    init = nf.InitialState(np.degrees(at_k[0]), np.degrees(at_k[1]), at_k[2], dv,
+                           (0.0, 0.0, 30.0))
+    z = np.zeros((1, 3))
+    run = nf._Run(flt, nf._Sensors(flt.models, h, 0.0, 0.0), init, np.array([0.0, h]),
+                  np.array([h]), z, z, z, z, [], None)
+    nf._fill_error_dynamics(run._F, at_k[0], at_k[2], tuple(dv), (0.0, 0.0, -9.8))
+    # velocity error sd 1 m/s carried over T seconds: position sd T, correlation ~1
+    P = np.diag(np.r_[[T * T + 1e-4] * 3, [1.0] * 3, [1e-12] * 3, [1e-12] * (run.n - 9)])
+    for i in range(3):
+        P[i, 3 + i] = P[3 + i, i] = T
+    run.P = P
+    run.t_prev, run.t_now = 0.0, h
+    before = (*moved(dv * (T - h)), tuple(dv))  # the state at t_k-1
+    run._epoch_updates([(h - lag, GnssPosition(lat, lon, hgt, 1e-3)),
+                        (h - lag, GnssVelocity(np.zeros(3), 0.3))], before, np.zeros(3), h,
+                       np.zeros(6))
+    y_vel = np.array(run.innov["gnss_velocity"][0][1:])
+    # the velocity left by the position fix (measured below 1e-3 m/s) against 0.9 DV
+    np.testing.assert_allclose(y_vel, 0.0, atol=0.01)
+    np.testing.assert_allclose(np.array(run.mech.v), 0.0, atol=0.01)
