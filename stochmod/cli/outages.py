@@ -8,10 +8,12 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from stochmod.core.errors import InputError
 from stochmod.core.model import Model
+from stochmod.core.tables import format_table
 from stochmod.fit.classical.build import family_for
 from stochmod.nav.emulate import Segment
 from stochmod.nav.logs import calibration_record, read_calibration
@@ -19,17 +21,21 @@ from stochmod.nav.study import (
     DEFAULT_OUTAGES,
     DEFAULT_PROFILE,
     MEAN_REMOVAL,
+    OutageStudy,
     outage_study,
     static_errors,
 )
 
-__all__ = ["register", "run", "white_part"]
+__all__ = ["predicted_drifts", "register", "run", "white_part"]
 
 #: --quick: a 3.5 min drive with two 30 s outages (for a first look; the default is 10 min).
 QUICK_PROFILE = (Segment(20, speed=15), Segment(15, turn=90), Segment(30, speed=20),
                  Segment(20, turn=-120, speed=12), Segment(30), Segment(20, turn=60, speed=18),
                  Segment(30, speed=22), Segment(15, turn=-90))
 QUICK_OUTAGES = ((60.0, 30.0), (130.0, 30.0))
+#: The drive's start (lat deg, lon deg, height m), heading (deg) and initial speed (m/s): the
+#: defaults of :func:`stochmod.nav.study.outage_study`, which the drift prediction follows.
+STUDY_START, STUDY_HEADING, STUDY_SPEED = (46.5, 6.6, 400.0), 30.0, 5.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -52,7 +58,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "made from; units declared as calibrate declares them) and each --calibration is "
             "one filter; the table adds, at the end of each outage, the mean NEES with its 95 % "
             "chi-square band and the RMS ratio of the horizontal error to the filter's own "
-            "horizontal 1-sigma."
+            "horizontal 1-sigma. A last table gives, per outage and calibration, the 1-sigma "
+            "horizontal drift the calibration predicts at the outage's end (`stochmod drift` "
+            "along the same drive) with its 5-95 % band from the calibration's parameter "
+            "uncertainty, beside the actual errors."
         ),
     )
     p.add_argument("--calibration", required=True, action="append", metavar="FILE",
@@ -99,6 +108,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dt-filter", type=float, default=0.1, metavar="S",
                    help="covariance step of the filters, s (default 0.1; 1.0 propagates once "
                         "per GNSS interval, about twice as fast)")
+    p.add_argument("--drift-draws", type=int, default=20, metavar="N",
+                   help="parameter draws for the band of the predicted drift (docs/drift.md; "
+                        "default 20; 0: the nominal prediction only)")
+    p.add_argument("--no-drift", action="store_true",
+                   help="do not predict the drift (skips one covariance run per outage, "
+                        "calibration and draw)")
     p.add_argument("--quick", action="store_true",
                    help="a 3.5 min drive with two 30 s outages instead of the 10 min drive")
     p.set_defaults(func=run)
@@ -116,6 +131,41 @@ def white_part(model: Model) -> Model:
         var = 2.0 * float(model.wv(1)[0])
     white = family_for(("N",))
     return Model((white.from_ieee952({"N": math.sqrt(var / freq)}, freq),)).bind(freq)
+
+
+def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profile: Sequence,
+                     cep: float, dt_filter: float, gyro_bias_sd: float, accel_bias_sd: float,
+                     draws: int, seed: int, workers: int = 1) -> tuple[str, list[list]]:
+    """Per outage of `study` and per calibration (filter name -> calibration file), the
+    predicted 1-sigma horizontal drift at the outage's end with its 5-95 % band
+    (:func:`stochmod.nav.drift.predicted_drift`, docs/drift.md) beside the study's actual
+    maximum horizontal error (mean and median over the runs, m).
+
+    The prediction runs the filter of the calibration along the study's drive (`profile`,
+    its start, heading and initial speed) with the study's GNSS (`cep` m, 3 m vertical,
+    0.1 m/s), initial sigmas, covariance step `dt_filter` (s) and turn-on bias sigmas (rad/s,
+    m/s^2), and fixes up to the outage's start: the earlier outages' gaps are not left out of
+    it. Returns a title and the table's rows ``[outage, filter, mean, median, sigma, 5 %,
+    95 %]``."""
+    from stochmod.nav.drift import predicted_drift
+
+    options = {"gyro_bias_sd": gyro_bias_sd, "accel_bias_sd": accel_bias_sd}
+    rows = []
+    for k, (start, dur) in enumerate(study.outages):
+        for name, path in calibrations.items():
+            pred = predicted_drift(path, outage=dur, motion=list(profile), settle=start,
+                                   speed=STUDY_SPEED, heading=STUDY_HEADING, start=STUDY_START,
+                                   cep=cep, dt_filter=dt_filter, n_draws=draws,
+                                   rng=[seed, k], filter_options=options, workers=workers,
+                                   settle_check=False)
+            lo, hi = pred.band() if draws else (math.nan, math.nan)
+            mean, med, _ = study.statistics(name)[k]
+            rows.append([f"{start:g}+{dur:g} s", name, mean, med, pred.end_sigma, lo, hi])
+    title = ("Predicted 1-sigma horizontal drift sqrt(P_NN + P_EE) at each outage's end (m) "
+             "from each calibration alone (stochmod drift along this drive), "
+             + (f"5-95 % band over {draws} parameter draw(s)" if draws else "no band (0 draws)")
+             + ", beside the actual max horizontal error (m)")
+    return title, rows
 
 
 def _span(text: str) -> tuple[float, float]:
@@ -156,6 +206,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the study and print its table."""
     if args.runs < 1:
         raise InputError(f"--runs must be at least 1, got {args.runs}")
+    if args.drift_draws < 0:
+        raise InputError(f"--drift-draws must be at least 0, got {args.drift_draws}")
     if args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     if not (math.isfinite(args.dt_filter) and args.dt_filter > 0):
@@ -193,6 +245,7 @@ def run(args: argparse.Namespace) -> int:
         record = calibration_record(path)
         study = outage_study(filters, models, rate=_rate(models, path), record=record,
                              truth_record=record, **common)
+        calibrations = {"calibrated": path}
     else:
         names = _names(args)
         filters = {n: read_calibration(f) for n, f in zip(names, args.calibration)}
@@ -207,5 +260,14 @@ def run(args: argparse.Namespace) -> int:
                                exclude=[_span(t) for t in args.exclude or ()], mean=args.mean)
         records = {n: calibration_record(f) for n, f in zip(names, args.calibration)}
         study = outage_study(filters, errors=errors, rate=rate, record=records, **common)
+        calibrations = dict(zip(names, args.calibration))
     print(study.summary())
+    if not args.no_drift:
+        title, rows = predicted_drifts(
+            calibrations, study, profile=common["profile"], cep=args.cep,
+            dt_filter=args.dt_filter, gyro_bias_sd=args.gyro_bias_sd,
+            accel_bias_sd=args.accel_bias_sd, draws=args.drift_draws, seed=args.seed,
+            workers=args.workers)
+        print(format_table(["outage", "filter", "actual mean", "median", "predicted sigma",
+                            "5%", "95%"], rows, digits=4, title=title))
     return 0

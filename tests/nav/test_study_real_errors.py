@@ -201,3 +201,46 @@ def test_adis_recording_reads_in_si_with_disjoint_windows() -> None:
     # gyro noise of a few mrad/s (not deg/s), accelerometers a few cm/s^2 around zero (no g)
     assert np.all(np.std(e[:, :3], axis=0) < 0.02)
     assert np.all(np.abs(np.mean(e[:, 3:], axis=0)) < 0.05)
+
+
+def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsys) -> None:
+    """Beside the actual errors, the 1-sigma horizontal drift each calibration predicts at the
+    end of each outage: the filter's own covariance along the study's drive
+    (stochmod.nav.drift.predicted_drift with the study's settings and fixes up to the outage).
+    The calibration of the record's true model predicts what its filter then meets: the
+    end-of-outage errors over the predicted sigma have an RMS near 1; the white-noise-only
+    calibration, which knows no bias, predicts a far smaller drift."""
+    from stochmod.cli.outages import QUICK_OUTAGES, QUICK_PROFILE, STUDY_SPEED, STUDY_START
+    from stochmod.nav.drift import predicted_drift
+
+    folder, _ = static_file
+    code = main(["outages", "--errors", str(folder / "static.npz"),
+                 "--calibration", str(folder / "true.json"),
+                 "--calibration", str(folder / "white.json"), "--names", "true", "white",
+                 "--exclude", f"0:{CALIBRATION_SPAN:g}", "--runs", "2", "--quick",
+                 "--dt-filter", "1", "--drift-draws", "2"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "Predicted 1-sigma horizontal drift" in out and "2 parameter draw(s)" in out
+    rows = {}
+    for line in out.splitlines():
+        cells = line.split()
+        if len(cells) == 8 and cells[0].endswith("+30") and cells[2] in ("true", "white"):
+            rows[(cells[0], cells[2])] = [float(c) for c in cells[3:]]
+    assert len(rows) == 4, out
+    sigma = {}
+    for start, _ in QUICK_OUTAGES:
+        pred = predicted_drift(str(folder / "true.json"), outage=30.0,
+                               motion=list(QUICK_PROFILE), settle=start, speed=STUDY_SPEED,
+                               start=STUDY_START, dt_filter=1.0, n_draws=0, settle_check=False)
+        sigma[start] = pred.end_sigma
+        true, white = rows[(f"{start:g}+30", "true")], rows[(f"{start:g}+30", "white")]
+        assert true[2] == pytest.approx(pred.end_sigma, rel=1e-3)  # 4 digits printed
+        assert white[2] < 0.5 * true[2]
+        assert true[3] <= true[2] <= true[4]  # the band holds the nominal (no spreads here)
+    # the true model's predicted sigma is about the true filter's error: max errors of 2 runs
+    # within a factor 3 of the sigma at the end
+    for start, s in sigma.items():
+        assert s / 3 < rows[(f"{start:g}+30", "true")][0] < 3 * s
+    assert main(["outages", "--calibration", str(folder / "true.json"), "--runs", "1",
+                 "--drift-draws", "-1"]) == 2
