@@ -7,8 +7,11 @@ feature: :func:`write_exports_for`, :func:`write_report_for`.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+import attrs
 
 from stochmod.core.units import SENSORS
 from stochmod.fit.selection import SelectionResult
@@ -21,10 +24,13 @@ from stochmod.output.exports import (
 )
 
 if TYPE_CHECKING:
+    from stochmod.fit.validation import ValidationBands
+    from stochmod.output.exports import AxisNoise
+    from stochmod.output.html_report import ReportAxis
     from stochmod.workflows.calibrate import CalibrationRun
 
-__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "fleet_requested", "write_exports_for",
-           "write_report_for"]
+__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "fleet_requested", "report_axis",
+           "write_exports_for", "write_report_for"]
 
 #: Help of ``--export-horizon`` (``calibrate`` and ``export``).
 EXPORT_HORIZON_HELP = (
@@ -85,30 +91,38 @@ def write_exports_for(args: argparse.Namespace, source: Calibration | list[Selec
                          units, out, horizon=args.export_horizon, rostopic=args.rostopic)
 
 
+def report_axis(run_: CalibrationRun, k: int, *, bands: ValidationBands | None = None,
+                noise: AxisNoise | None = None) -> ReportAxis:
+    """What the report and the column's figure show of column `k` of the calibration `run_`:
+    its selection, datasheet, final fit and verdict, with the `bands` of simulations and the
+    exported `noise` terms when there are some."""
+    from stochmod.output.html_report import ReportAxis
+
+    sel = run_.selections[k]
+    return ReportAxis(sel.column, sel, run_.datasheets[sel.column], bands,
+                      note="" if not run_.triads else "model structure chosen per triad",
+                      final=run_.finals[k], noise=noise, verdict=run_.verdicts[k])
+
+
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
-                     title: str, out: Path) -> list[Path]:
+                     title: str, out: Path, drawn: Sequence[ReportAxis | None] = ()
+                     ) -> list[Path]:
     """``OUT/report.html`` (with ``--report``) of the calibration `run_`: the summary across
-    axes first, with each axis's exported N and K when `exported` holds files. Each axis's
-    bands compare WVs only, on the simulations its figure drew when there is one
-    (:func:`stochmod.fit.validation.keep_simulated`)."""
+    axes first, with each axis's exported N and K when `exported` holds files. `drawn`: per
+    column, its figure drawn already (:func:`report_axis` with its PNG) or None; the report
+    draws the others."""
     if not args.report:
         return []
-    from stochmod.fit.validation import validate
     from stochmod.output.exports import noise_terms
-    from stochmod.output.html_report import ReportAxis, write_report
+    from stochmod.output.html_report import write_report
 
-    data = run_.record.data
-    axes = []
-    for k, (sel, fin, judged) in enumerate(zip(run_.selections, run_.finals, run_.verdicts)):
-        sheet = run_.datasheets[sel.column]
-        # the WV bands (the report shows no PSD), from the figure's simulations when drawn
-        bands = validate(sel.best, data[:, k], R=args.n_sim, rng=args.seed, psd=False)
-        noise = (noise_terms(sel.best, sheet.unit, column=sel.column, horizon=args.export_horizon,
-                             record_seconds=run_.calibration.record_seconds)
-                 if exported else None)
-        axes.append(ReportAxis(sel.column, sel, sheet, bands,
-                               note="" if not run_.triads else "model structure chosen per triad",
-                               final=fin, noise=noise, verdict=judged))
+    drawn = list(drawn) or [None] * len(run_.selections)
+    axes = [report_axis(run_, k) if a is None else a for k, a in enumerate(drawn)]
+    if exported:
+        axes = [attrs.evolve(a, noise=noise_terms(
+                    a.selection.best, a.datasheet.unit, column=a.column,
+                    horizon=args.export_horizon, record_seconds=run_.calibration.record_seconds))
+                for a in axes]
     exports = {p.name: p.read_text() for p in exported}
     path = write_report(out / "report.html", axes, title=title, exports=exports,
                         triads=run_.triads)

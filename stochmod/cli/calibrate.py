@@ -11,7 +11,7 @@ import contextlib
 import re
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import attrs
 import numpy as np
@@ -24,7 +24,7 @@ from stochmod.core.errors import EstimationError, InputError
 from stochmod.core.parallel import process_pool, single_threaded_blas
 from stochmod.core.tables import format_table
 from stochmod.core.units import SENSORS
-from stochmod.data.examples import DEFAULT_EXAMPLE_N, XSENS_UNITS, xsens_mtig
+from stochmod.data.examples import DEFAULT_EXAMPLE_N, xsens_mtig
 from stochmod.empirical.allan_reading import AllanReading
 from stochmod.fit.results import GMWMResult
 from stochmod.fit.selection import SelectionResult
@@ -39,6 +39,9 @@ from stochmod.workflows.calibrate import (
     select_columns,
 )
 from stochmod.workflows.fleet import SerialExecutor, UnitSteps, run_fleet
+
+if TYPE_CHECKING:
+    from stochmod.output.html_report import ReportAxis
 
 __all__ = [
     "SIMULATIONS_PER_TASK",
@@ -55,7 +58,7 @@ __all__ = [
     "unit_columns",
 ]
 
-#: Simulated series per task of the figures on a pool (the default 20 a column: two tasks).
+#: Simulated series per task of the figures on a pool (``--n-sim 20``: two tasks a column).
 SIMULATIONS_PER_TASK = 10
 
 
@@ -85,8 +88,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "deg/s -> rad/s (default 1)")
     p.add_argument("--n", type=int, default=DEFAULT_EXAMPLE_N,
                    help=f"samples per column of the bundled example (no FILE; default {DEFAULT_EXAMPLE_N})")
-    p.add_argument("--n-sim", type=int, default=20,
-                   help="series simulated from each fit for the figures (default 20)")
+    p.add_argument("--n-sim", type=int, default=0,
+                   help="series simulated from each fit, the data's length each, whose 95%% band "
+                        "the figures draw beside the model's (default 0: the model's band only, "
+                        "the band of the verdict)")
     p.add_argument("--no-plots", action="store_true", help="do not write figures")
     p.add_argument("--jobs", type=int, default=2, metavar="N",
                    help="worker processes for the selection's fits and the figures (default 2; "
@@ -129,16 +134,6 @@ def _filename(column: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", column).strip("_") or "column"
 
 
-def _figure(fit: GMWMResult, path: Path, n_sim: int, seed: int, title: str, unit: str,
-            simulated: np.ndarray | None = None) -> Path:
-    """One column's validation figure (module level: runs in a worker process), with its
-    `simulated` WVs when they are already computed."""
-    from stochmod.output.plots import save_fit_figure
-
-    return save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=title, unit=unit,
-                           simulated=simulated)
-
-
 def _simulations(fit: GMWMResult, n_sim: int, seed: int, start: int, stop: int) -> np.ndarray:
     """Series ``start:stop`` of the `n_sim` simulated WVs of a column's figure (module level:
     runs in a worker process)."""
@@ -147,62 +142,76 @@ def _simulations(fit: GMWMResult, n_sim: int, seed: int, start: int, stop: int) 
     return simulated_wv(fit, n_sim, seed, indices=slice(start, stop))
 
 
-def _keep(fit: GMWMResult, seed: int, simulated: np.ndarray) -> np.ndarray:
-    """`simulated`, kept for the report's bands of the same fit
-    (:func:`stochmod.fit.validation.keep_simulated`: its :func:`~stochmod.fit.validation.
-    validate` draws the same series)."""
-    from stochmod.fit.validation import keep_simulated
+def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
+          simulated: np.ndarray | None) -> ReportAxis | None:
+    """Column `k`'s figure, written to ``OUT/<column>.png``: for a sensor column the report's
+    (:func:`stochmod.output.html_report.axis_figure`, returned with its PNG for the report),
+    for another column the fit's validation figure (:func:`stochmod.output.plots.plot_fit`,
+    None returned); with the band of its `simulated` WVs when there are some (kept for
+    :func:`stochmod.validate`, which then draws the same series)."""
+    from stochmod.fit.validation import keep_simulated, validate
+    from stochmod.output.html_report import axis_figure_png
+    from stochmod.output.plots import save_fit_figure
 
-    keep_simulated(fit.model, fit.empirical.n, fit.empirical.wavelet, seed, simulated)
-    return simulated
+    sel = run_.selections[k]
+    fit, path = sel.best, out / f"{_filename(sel.column)}.png"
+    if sel.column not in run_.datasheets:
+        save_fit_figure(fit, path, n_sim=n_sim, rng=seed, title=f"{sel.column}: {fit.model.name}",
+                        unit=run_.record.unit_map().get(sel.column) or "u", simulated=simulated)
+        return None
+    bands = None
+    if simulated is not None:
+        keep_simulated(fit.model, fit.empirical.n, fit.empirical.wavelet, seed, simulated)
+        bands = validate(fit, run_.record.data[:, k], R=n_sim, rng=seed, psd=False)
+    axis = extras.report_axis(run_, k, bands=bands)
+    png = axis_figure_png(axis)
+    path.write_bytes(png)
+    return attrs.evolve(axis, figure=png)
 
 
-def _figures(results: list[SelectionResult], out: Path, n_sim: int, seed: int,
-             units: dict[str, str], executor: Any = None) -> list[Path]:
-    """The columns' figures, calibrate's second largest stage after the fits: each simulates
-    `n_sim` series of the data's length.
+def _figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
+             executor: Any = None) -> list[ReportAxis | None]:
+    """Each column's figure (:func:`_draw`), the same PNG that the report shows; with
+    `n_sim` series simulated from each fit (the data's length each), the band of the
+    simulations besides the model's.
 
     On a pool, the simulations go to the workers in tasks of :data:`SIMULATIONS_PER_TASK`
     series, the columns with the most components first (the longest tasks first balance the
     two workers best), and this process, which would otherwise wait, draws each figure as
     soon as its simulations are in; the figures are the same as drawn in one piece (series i
-    draws from the i-th child of `seed` however the series are split). The simulated WVs are
-    kept for the report's bands (:func:`_keep`), which are the same simulations of the same
-    fit.
+    draws from the i-th child of `seed` however the series are split).
     """
     import importlib.util
 
     if importlib.util.find_spec("matplotlib") is None:
         return []
-    jobs = [(sel.best, out / f"{_filename(sel.column)}.png", n_sim, seed,
-             f"{sel.column}: {sel.best.model.name}", units.get(sel.column, "u"))
-            for sel in results]
-    if executor is None or isinstance(executor, SerialExecutor) or n_sim == 0:  # no overlap
-        def call(fn: Any, *args: Any, **kwargs: Any) -> Any:
-            return (fn(*args, **kwargs) if executor is None
-                    else executor.submit(fn, *args, **kwargs).result())
+    results = list(run_.selections)
+    if n_sim == 0:
+        return [_draw(run_, k, out, n_sim, seed, None) for k in range(len(results))]
+    if executor is None or isinstance(executor, SerialExecutor):  # no overlap
+        def call(fn: Any, *args: Any) -> Any:
+            return fn(*args) if executor is None else executor.submit(fn, *args).result()
 
-        return [call(_figure, *job, simulated=None if n_sim == 0 else _keep(
-                    sel.best, seed, call(_simulations, sel.best, n_sim, seed, 0, n_sim)))
-                for sel, job in zip(results, jobs)]
+        return [_draw(run_, k, out, n_sim, seed, call(_simulations, sel.best, n_sim, seed, 0, n_sim))
+                for k, sel in enumerate(results)]
     spans = [(a, min(a + SIMULATIONS_PER_TASK, n_sim)) for a in range(0, n_sim, SIMULATIONS_PER_TASK)]
-    longest_first = sorted(range(len(jobs)), key=lambda k: -len(results[k].best.model.processes))
+    longest_first = sorted(range(len(results)), key=lambda k: -len(results[k].best.model.processes))
     futures = {executor.submit(_simulations, results[k].best, n_sim, seed, a, b): (k, i)
                for k in longest_first for i, (a, b) in enumerate(spans)}
-    parts: list[dict[int, np.ndarray]] = [{} for _ in jobs]
-    paths: list[Path] = [job[1] for job in jobs]
+    parts: list[dict[int, np.ndarray]] = [{} for _ in results]
+    drawn: dict[int, ReportAxis] = {}
     try:
         for future in concurrent.futures.as_completed(futures):
             k, i = futures[future]
             parts[k][i] = future.result()
             if len(parts[k]) == len(spans):
                 simulated = np.vstack([parts[k][i] for i in range(len(spans))])
-                _figure(*jobs[k], simulated=_keep(results[k].best, seed, simulated))
+                drawn[k] = _draw(run_, k, out, n_sim, seed, simulated)
     except BaseException:
         for future in futures:
             future.cancel()
         raise
-    return paths
+    return [drawn[k] for k in range(len(results))]
 
 
 @contextlib.contextmanager
@@ -421,15 +430,13 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
     exported = extras.write_exports_for(args, cal, sensors, out)
     rec = run_.record
-    units = XSENS_UNITS if args.file is None else rec.unit_map()
-    selections = list(run_.selections)
-    figures = [] if args.no_plots else _figures(selections, out, args.n_sim, args.seed, units,
-                                                pool)
+    drawn = [] if args.no_plots else _figures(run_, out, args.n_sim, args.seed, pool)
+    figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
     samples = f"{cal.n} samples" + (f" in {len(segments)} gap-free segments"
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, run_, exported, title, out)
+    figures += extras.write_report_for(args, run_, exported, title, out, drawn)
     if quiet:
         return report
     if args.json:

@@ -13,8 +13,9 @@ One file, no external resources (figures are PNGs embedded as base64), laid out 
    (:func:`stochmod.output.plots.allan_figure`): the data with their 95 % interval, the final
    model's curve, and the exports' bound ``N^2/tau + K^2 tau/3``;
 4. the triad tables and, per axis, the figure of the wavelet variance and the Allan deviation
-   against simulations of the fit (:func:`stochmod.validate`), the datasheet, the parameters
-   and the selection's ranking.
+   (:func:`axis_figure`: the data with their 95 % interval inside the model's 95 % band, the
+   band the verdict counts levels in), the datasheet, the parameters and the selection's
+   ranking.
 
 Tables longer than :data:`SHOWN_ROWS` rows show their first rows, the rest in a
 ``<details>`` element. Figures need matplotlib (``pip install "stochmod[plots]"``).
@@ -37,7 +38,7 @@ from stochmod.core.units import BI_FACTOR, convert
 from stochmod.fit.equivalence import FinalFit
 from stochmod.fit.selection import SelectionResult
 from stochmod.fit.validation import ValidationBands
-from stochmod.fit.verdict import Verdict, verdict
+from stochmod.fit.verdict import Verdict, model_band, verdict
 from stochmod.output.datasheet import Datasheet
 from stochmod.output.exports import AxisNoise
 
@@ -75,8 +76,9 @@ class ReportAxis:
         Its model selection (ranking table); ``best`` is the final fit.
     datasheet : Datasheet
         Its datasheet summary (with the Allan reading of the data).
-    bands : ValidationBands
-        The data against simulations of the reported fit.
+    bands : ValidationBands, optional
+        The data against simulations of the reported fit (:func:`stochmod.validate`), drawn
+        beside the model's band when given.
     note : str
         A line under the heading (e.g. the triad's structure).
     final : FinalFit, optional
@@ -85,16 +87,19 @@ class ReportAxis:
         The exported white density and random walk (when exports were written).
     verdict : Verdict, optional
         The verdict of the final fit, when made already (else the report makes it).
+    figure : bytes, optional
+        The PNG of :func:`axis_figure`, when drawn already (else the report draws it).
     """
 
     column: str
     selection: SelectionResult
     datasheet: Datasheet
-    bands: ValidationBands
+    bands: ValidationBands | None = None
     note: str = ""
     final: FinalFit | None = None
     noise: AxisNoise | None = None
     verdict: Verdict | None = None
+    figure: bytes | None = None
 
 
 def _cell(value: Any, i: int) -> str:
@@ -133,13 +138,14 @@ def _img(png: bytes, alt: str) -> str:
 
 # --- the Allan deviations -------------------------------------------------------------------
 
-def _allan_curves(axis: ReportAxis, *, bands: bool) -> Any:
+def _allan_curves(axis: ReportAxis, *, band: bool) -> Any:
     """The axis's Allan panel (:class:`stochmod.output.plots.AllanCurves`, SI): the data's
     reading, the final model at every dyadic tau of the wavelet variance, its minimum, the
-    export's N and K, and (with `bands`) the simulated band."""
+    export's N and K, and (with `band`) the model's 95 % band at the fitted levels
+    (:func:`stochmod.fit.verdict.model_band`; the Allan variance is twice the Haar WV)."""
     from stochmod.output.plots import AllanCurves
 
-    fit, ds, b = axis.selection.best, axis.datasheet, axis.bands
+    fit, ds = axis.selection.best, axis.datasheet
     emp = fit.empirical
     tau_m = np.asarray(emp.tau, dtype=float)
     adev_m = np.sqrt(2.0 * fit.model.wv(tau_m.size))
@@ -152,18 +158,18 @@ def _allan_curves(axis: ReportAxis, *, bands: bool) -> Any:
     minimum = None
     if bi.tau is not None and bi.model is not None:
         minimum = (bi.tau, float(convert(bi.model * BI_FACTOR, bi.unit, ds.unit)))
-    band: dict[str, Any] = {}
-    if bands:
-        band = {"band_tau": b.tau, "band_low": np.sqrt(2 * b.band_low),
-                "band_high": np.sqrt(2 * b.band_high),
-                "band_label": f"95% of {b.R} simulations"}
+    extra: dict[str, Any] = {}
+    if band:
+        low, high = model_band(fit)
+        extra = {"band_tau": tau_m[: fit.levels], "band_low": np.sqrt(2.0 * low),
+                 "band_high": np.sqrt(2.0 * high), "band_label": "model's 95% band"}
     noise = axis.noise
     return AllanCurves(axis.column, ds.unit, model_tau=tau_m, model_adev=adev_m,
                        model_name=fit.model.name, minimum=minimum,
                        noise_density=None if noise is None else noise.noise_density,
                        random_walk=None if noise is None else noise.random_walk,
                        horizon=None if noise is None else noise.horizon,
-                       **data, **band)
+                       **data, **extra)
 
 
 def allan_overview(axes: Sequence[ReportAxis]) -> Any:
@@ -172,7 +178,7 @@ def allan_overview(axes: Sequence[ReportAxis]) -> Any:
     bound (a matplotlib Figure, :func:`stochmod.output.plots.allan_figure`)."""
     from stochmod.output.plots import allan_figure
 
-    return allan_figure([_allan_curves(a, bands=False) for a in axes])
+    return allan_figure([_allan_curves(a, band=False) for a in axes])
 
 
 def allan_overview_png(axes: Sequence[ReportAxis], dpi: int = 95) -> bytes:
@@ -182,31 +188,39 @@ def allan_overview_png(axes: Sequence[ReportAxis], dpi: int = 95) -> bytes:
 
 def axis_figure(axis: ReportAxis) -> Any:
     """The axis's two panels (a matplotlib Figure): the Haar WV in the signal unit and the
-    Allan deviation in datasheet units, data (95 % CI), model and the band of simulations."""
+    Allan deviation in datasheet units; the data with their 95 % interval, the fitted model
+    and its 95 % band (:func:`stochmod.fit.verdict.model_band`, the band of the verdict), and
+    the band of the simulations of :attr:`ReportAxis.bands` when there are some."""
     try:
         from matplotlib.figure import Figure
     except ImportError:
         raise ImportError('the report figures need matplotlib: pip install "stochmod[plots]"') from None
     from stochmod.output.plots import plot_allan
 
-    b = axis.bands
-    unit = axis.datasheet.unit
+    fit, unit = axis.selection.best, axis.datasheet.unit
+    emp, J = fit.empirical, fit.levels
+    tau = emp.tau[:J]
+    low, high = model_band(fit)
     fig = Figure(figsize=(10.0, 3.8))
     ax1, ax2 = fig.subplots(1, 2)
-    ax1.fill_between(b.tau, b.band_low, b.band_high, color="0.8", label=f"95% of {b.R} simulations")
-    ax1.fill_between(b.tau, b.ci_low, b.ci_high, color="C0", alpha=0.3, label="data 95% CI")
-    ax1.loglog(b.tau, b.wv, "o", color="C0", ms=3, label="data WV")
-    ax1.loglog(b.tau, b.model_wv, "-", color="C3", label=f"model {b.model.name}")
+    b = axis.bands
+    if b is not None:
+        ax1.fill_between(b.tau, b.band_low, b.band_high, color="0.8",
+                         label=f"95% of {b.R} simulations")
+    ax1.fill_between(tau, low, high, color="C3", alpha=0.15, label="model's 95% band")
+    ax1.fill_between(tau, emp.ci_low[:J], emp.ci_high[:J], color="C0", alpha=0.3,
+                     label="data 95% CI")
+    ax1.loglog(tau, emp.wv[:J], "o", color="C0", ms=3, label="data WV")
+    ax1.loglog(tau, fit.model_wv(), "-", color="C3", label=f"model {fit.model.name}")
     ax1.set_ylabel(f"Haar wavelet variance [({unit})^2]")
     ax1.set_xlabel("averaging time tau [s]")
-    ax1.grid(True, which="both", alpha=0.3)
-    ax1.legend(fontsize="x-small")
+    ax1.grid(True, alpha=0.3)
+    ax1.legend(fontsize="x-small", loc="lower left")
     ax1.set_title("wavelet variance", fontsize="medium")
-    plot_allan(attrs.evolve(_allan_curves(axis, bands=True), noise_density=None,
-                            random_walk=None, horizon=None, model_tau=b.tau,
-                            model_adev=np.sqrt(2 * b.model_wv)), ax2)
+    plot_allan(attrs.evolve(_allan_curves(axis, band=True), noise_density=None,
+                            random_walk=None, horizon=None), ax2)
     ax2.set_title("Allan deviation", fontsize="medium")
-    fig.suptitle(f"{axis.column}: {b.model.name}")
+    fig.suptitle(f"{axis.column}: {fit.model.name}")
     # fixed margins (tight_layout measures every text first: a second layout pass)
     fig.subplots_adjust(left=0.08, right=0.985, bottom=0.14, top=0.86, wspace=0.28)
     return fig
@@ -341,10 +355,14 @@ def _axis_html(axis: ReportAxis, figures: bool) -> str:
     if axis.note:
         parts.append(f"<p>{html.escape(axis.note)}</p>")
     if figures:
-        parts.append(_img(axis_figure_png(axis),
+        parts.append(_img(axis_figure_png(axis) if axis.figure is None else axis.figure,
                           f"{axis.column} wavelet variance and Allan deviation"))
-    parts.append(f"<p>Data inside the 95% band of the simulations at "
-                 f"{100 * axis.bands.coverage:.0f}% of the levels.</p>")
+    judged = axis.verdict if axis.verdict is not None else verdict(sel.best, candidates=sel.ranking)
+    inside = f"Data inside the model's 95% band at {100 * judged.inside:.0f}% of the levels"
+    if axis.bands is not None:
+        inside += (f", inside the 95% band of {axis.bands.R} simulations at "
+                   f"{100 * axis.bands.coverage:.0f}%")
+    parts.append(f"<p>{inside}.</p>")
     parts.append("<h3>Datasheet</h3>")
     parts.append(_table(*ds.summary_table(), "datasheet"))
     prow = [[p.name, p.si, p.si_low, p.si_high, p.si_unit] for p in ds.parameters]

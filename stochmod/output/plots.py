@@ -319,5 +319,9 @@ def allan_figure(panels: Sequence[AllanCurves], ncols: int = 3, *,
             ax.set_axis_off()
     fig.legend(list(labels.values()), list(labels), loc="lower center", ncol=len(labels),
                fontsize="small", frameon=False)
-    fig.tight_layout(rect=(0.0, legend_height / height, 1.0, 1.0))
+    # fixed margins in inches (tight_layout measures every text first: a second layout pass)
+    width = panel_size[0] * ncols
+    fig.subplots_adjust(left=0.75 / width, right=1.0 - 0.15 / width,
+                        bottom=(legend_height + 0.5) / height, top=1.0 - 0.3 / height,
+                        wspace=0.32, hspace=1.35 / panel_size[1])
     return fig
