@@ -195,7 +195,7 @@ def axis_figure(axis: ReportAxis) -> Any:
         from matplotlib.figure import Figure
     except ImportError:
         raise ImportError('the report figures need matplotlib: pip install "stochmod[plots]"') from None
-    from stochmod.output.plots import plot_allan
+    from stochmod.output.plots import log_grid, plot_allan
 
     fit, unit = axis.selection.best, axis.datasheet.unit
     emp, J = fit.empirical, fit.levels
@@ -214,12 +214,12 @@ def axis_figure(axis: ReportAxis) -> Any:
     ax1.loglog(tau, fit.model_wv(), "-", color="C3", label=f"model {fit.model.name}")
     ax1.set_ylabel(f"Haar wavelet variance [({unit})^2]")
     ax1.set_xlabel("averaging time tau [s]")
-    ax1.grid(True, alpha=0.3)
-    ax1.legend(fontsize="x-small", loc="lower left")
-    ax1.set_title("wavelet variance", fontsize="medium")
+    log_grid(ax1)
+    ax1.legend(fontsize="x-small")
+    ax1.set_title("wavelet variance", fontsize="medium", y=1.0)
     plot_allan(attrs.evolve(_allan_curves(axis, band=True), noise_density=None,
                             random_walk=None, horizon=None), ax2)
-    ax2.set_title("Allan deviation", fontsize="medium")
+    ax2.set_title("Allan deviation", fontsize="medium", y=1.0)
     fig.suptitle(f"{axis.column}: {fit.model.name}")
     # fixed margins (tight_layout measures every text first: a second layout pass)
     fig.subplots_adjust(left=0.08, right=0.985, bottom=0.14, top=0.86, wspace=0.28)
