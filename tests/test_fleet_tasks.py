@@ -106,7 +106,7 @@ def _worker_warmth() -> dict:
     from stochmod.empirical import allan_jit, haar_jit, spectrum_jit
 
     return {"parent": os.getppid(), "warm_module": "stochmod.cli._fleet_worker" in sys.modules,
-            "loops": [len(haar_jit.haar_sweep.signatures), len(spectrum_jit.power_gram.signatures),
+            "loops": [len(haar_jit.haar_pyramid_sums.signatures), len(spectrum_jit.power_gram.signatures),
                       len(allan_jit.difference_sumsq.signatures)],
             "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
             "malloc": os.environ.get("MALLOC_TRIM_THRESHOLD_")}

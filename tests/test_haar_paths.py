@@ -9,8 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stochmod.core import filters
-from stochmod.core import jit
+from stochmod.core import filters, jit
 from stochmod.empirical import haar_jit, modwt
 from stochmod.empirical.robust_wv import m_scale, robust_wvar, scale_rho
 from stochmod.empirical.wavelet_variance import wvar
@@ -115,34 +114,61 @@ def _rng_signal(seed: int, n: int) -> np.ndarray:
     return rng.standard_normal(n) + 10.0
 
 
+_PYRAMID_LOOPS = ("_level", "_sum_sq_diff", "_last_level", "_level_in_place", "_sweep_block")
+
+
+def _pyramid_case(n: int, levels: int, k: int, chunk: int, seed: int):
+    src = _rng_signal(seed, n)
+    levels = min(levels, filters.max_level(n))
+    k = min(k, levels)
+    bufs = np.zeros((2, min(chunk + 2**k - 1, n)))
+    return src, levels, k, bufs
+
+
 @needs_numba
 @settings(max_examples=40, deadline=None)
-@given(n=st.integers(2, 400), first=st.integers(1, 3), k=st.integers(1, 3),
-       chunk=st.integers(1, 40), last=st.booleans(), seed=st.integers(0, 2**32 - 1))
-def test_compiled_sweep_equals_its_plain_function(n, first, k, chunk, last, seed):
-    """haar_sweep and the level loops it calls, compiled against plain Python: the same V
-    values bit for bit, the sums of squares to rounding (reassociated partial sums)."""
-    halo = 2 ** (first - 1) * (2**k - 1)
-    src = _rng_signal(seed, n + halo)
-    runs = []
-    for sweep, level, last_level in (
-            (haar_jit.haar_sweep, None, None),
-            (haar_jit.haar_sweep.py_func, haar_jit._level.py_func,
-             haar_jit._last_level.py_func)):
-        v, bufs, totals = np.zeros(n + halo), np.zeros((2, n + 2 * halo)), np.zeros(k)
-        if level is None:
-            sweep(src, v, n + halo, first, k, last, bufs, chunk, totals)
-        else:  # the plain sweep through the plain level loops
-            saved = haar_jit._level, haar_jit._last_level
-            haar_jit._level, haar_jit._last_level = level, last_level
-            try:
-                sweep(src, v, n + halo, first, k, last, bufs, chunk, totals)
-            finally:
-                haar_jit._level, haar_jit._last_level = saved
-        runs.append((v, totals))
-    (v, totals), (v_plain, totals_plain) = runs
+@given(n=st.integers(2, 600), levels=st.integers(1, 9), k=st.integers(1, 4),
+       chunk=st.integers(1, 40), seed=st.integers(0, 2**32 - 1))
+def test_compiled_pyramid_equals_its_plain_function(n, levels, k, chunk, seed):
+    """haar_pyramid_sums and the level loops it calls, compiled against plain Python: the same
+    V values bit for bit, the sums of squares to rounding (reassociated partial sums)."""
+    src, levels, k, bufs = _pyramid_case(n, levels, k, chunk, seed)
+    v, totals = np.zeros(n), np.zeros(levels)
+    haar_jit.haar_pyramid_sums(src, v, levels, k, bufs, chunk, totals)
+    with pytest.MonkeyPatch.context() as patch:  # the plain pyramid through the plain loops
+        for name in _PYRAMID_LOOPS:
+            patch.setattr(haar_jit, name, getattr(haar_jit, name).py_func)
+        v_plain, totals_plain = np.zeros(n), np.zeros(levels)
+        haar_jit.haar_pyramid_sums.py_func(src, v_plain, levels, k, bufs.copy(), chunk,
+                                           totals_plain)
     np.testing.assert_array_equal(v, v_plain)
     np.testing.assert_allclose(totals, totals_plain, rtol=1e-12, atol=0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 600), levels=st.integers(1, 9), k=st.integers(1, 4),
+       chunk=st.integers(1, 40), seed=st.integers(0, 2**32 - 1))
+def test_pyramid_order_of_blocks_leaves_the_digits(n, levels, k, chunk, seed):
+    """The deep levels follow each other through memory a few blocks apart; run level by level
+    over the whole signal instead (every block of the sweep, then each deeper level from start
+    to end), the same block sums give the same totals and V values bit for bit."""
+    src, levels, k, bufs = _pyramid_case(n, levels, k, chunk, seed)
+    v, totals = np.zeros(n), np.zeros(levels)
+    haar_jit.haar_pyramid_sums(src, v, levels, k, bufs, chunk, totals)
+    v_ref, ref = np.zeros(n), np.zeros(levels)
+    end = n - (2**k - 1)
+    for s in range(0, end, chunk):
+        haar_jit._sweep_block(src, v_ref, n, k, levels == k, bufs, s, min(s + chunk, end), end,
+                              ref)
+    size = end
+    for j in range(k + 1, levels + 1):
+        step = 2 ** (j - 1)
+        size -= step
+        for s in range(0, size, chunk):
+            ref[j - 1] += haar_jit._level_in_place(v_ref[s:], min(chunk, size - s), step,
+                                                   j < levels)
+    np.testing.assert_array_equal(totals, ref)
+    np.testing.assert_array_equal(v, v_ref)
 
 
 @needs_numba

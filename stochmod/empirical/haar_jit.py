@@ -16,7 +16,7 @@ import numpy as np
 
 from stochmod.core.jit import compiled
 
-__all__ = ["haar_level_coefficients", "haar_level_power_sums", "haar_sweep"]
+__all__ = ["haar_level_coefficients", "haar_level_power_sums", "haar_pyramid_sums"]
 
 _BLOCK = 4096  # samples per inner block of the robust pass (three float64 arrays in L1/L2)
 _GROUP = 64  # coefficients per group of the robust pass's scan for those outside the core
@@ -43,18 +43,26 @@ def _level(cur: np.ndarray, out: np.ndarray, own: int, size: int,
 
 
 @compiled
-def _last_level(cur: np.ndarray, out: np.ndarray, own: int, step: int,
-                write: bool) -> float:  # pragma: no cover
-    """Sum of ``(cur[t + step] - cur[t])^2`` over t < own and, if `write`,
-    ``out[t] = cur[t] + cur[t + step]`` (`out` may be `cur` itself: t + step is read before t
-    is written)."""
+def _sum_sq_diff(cur: np.ndarray, own: int, step: int) -> float:  # pragma: no cover
+    """Sum of ``(cur[t + step] - cur[t])^2`` over t < own."""
     a_ = cur[:own]
     b_ = cur[step : step + own]
     acc = 0.0
     for t in range(own):
         d = b_[t] - a_[t]
         acc += d * d
+    return acc
+
+
+@compiled
+def _last_level(cur: np.ndarray, out: np.ndarray, own: int, step: int,
+                write: bool) -> float:  # pragma: no cover
+    """Sum of ``(cur[t + step] - cur[t])^2`` over t < own and, if `write`,
+    ``out[t] = cur[t] + cur[t + step]`` (`out` must not overlap `cur`)."""
+    acc = _sum_sq_diff(cur, own, step)
     if write:
+        a_ = cur[:own]
+        b_ = cur[step : step + own]
         o = out[:own]
         for t in range(own):
             o[t] = a_[t] + b_[t]
@@ -62,41 +70,83 @@ def _last_level(cur: np.ndarray, out: np.ndarray, own: int, step: int,
 
 
 @compiled
-def haar_sweep(src: np.ndarray, v: np.ndarray, n_valid: int, first: int, k: int, last: bool,
-               bufs: np.ndarray, chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
-    """Haar levels ``first .. first + k - 1`` in one pass over memory.
+def _level_in_place(v: np.ndarray, own: int, step: int, write: bool) -> float:  # pragma: no cover
+    """Sum of ``(v[t + step] - v[t])^2`` over t < own and, if `write`, ``v[t] += v[t + step]``
+    in place, in pieces of at most `step` samples: within a piece the written and the read
+    samples do not overlap, so the loop runs on vectors."""
+    acc = _sum_sq_diff(v, own, step)
+    if write:
+        for s in range(0, own, step):
+            n = min(step, own - s)
+            a_ = v[s : s + n]
+            b_ = v[s + step : s + step + n]
+            for t in range(n):
+                a_[t] += b_[t]
+    return acc
 
-    `src[:n_valid]` holds the unscaled sums V_{first-1} (the signal itself for first = 1);
-    ``v[:n_valid - halo]`` receives V_{first+k-1} (skipped when `last`: nothing follows), with
-    ``halo = 2^(first-1) (2^k - 1)``. Each block of `chunk` output samples is read once with
-    its halo, and all k levels are computed in the two rows of `bufs` (each at least
-    ``chunk + halo`` samples), which the levels of a block alternate between. The sums of the
-    unscaled ``(2^j W_j)^2`` go to ``totals[:k]``; every W and V value is the same
-    floating-point operation as in a level-by-level pyramid.
+
+@compiled
+def _sweep_block(src: np.ndarray, v: np.ndarray, n_valid: int, k: int, last: bool,
+                 bufs: np.ndarray, s: int, e: int, end: int,
+                 totals: np.ndarray) -> None:  # pragma: no cover
+    """Haar levels ``1 .. k`` of the output samples ``[s, e)`` of a sweep (see
+    :func:`haar_pyramid_sums`); the sums of squares are added to ``totals[:k]``."""
+    tail = e == end  # the last block also owns the tails of the shallower levels
+    size = (n_valid if tail else e + 2**k - 1) - s  # samples of the signal read
+    for i in range(k):
+        step = 2**i
+        size -= step
+        own = size if tail else e - s
+        if i == k - 1:  # own == e - s: the block's last V goes to the work array
+            if i == 0:
+                totals[i] += _last_level(src[s:], v[s:], own, step, not last)
+            else:
+                totals[i] += _last_level(bufs[(i - 1) % 2], v[s:], own, step, not last)
+        elif i == 0:
+            totals[i] += _level(src[s:], bufs[0], own, size, step)
+        else:
+            totals[i] += _level(bufs[(i - 1) % 2], bufs[i % 2], own, size, step)
+
+
+@compiled
+def haar_pyramid_sums(src: np.ndarray, v: np.ndarray, levels: int, k: int, bufs: np.ndarray,
+                      chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
+    """Sums of the unscaled squared Haar coefficients ``(2^j W_j)^2`` of `src` (the signal) at
+    levels ``j = 1 .. levels``, into ``totals[:levels]``.
+
+    Levels ``1 .. k`` run as one sweep: each block of `chunk` output samples is read once with
+    its halo of ``2^k - 1`` samples, its k levels alternate between the two rows of `bufs`
+    (each at least ``chunk + 2^k - 1`` samples, or the signal's length), and its unscaled sums
+    ``V_k`` go to `v` (length of `src`). Each deeper level j updates `v` in place, block of
+    `chunk` samples after block, from ``V_{j-1}`` to ``V_j``; a block runs as soon as the level
+    above has written the samples it reads (``2^(j-1)`` past its end), so that the levels
+    follow each other through memory a few blocks apart and `v` is read from cache. Every sum
+    of a block is added to its level's total in the order of the blocks, and every W and V
+    value is the same floating-point operation as in a level-by-level pyramid.
     """
-    halo = 0
-    for i in range(k):
-        halo += 2 ** (first - 1 + i)
-    end = n_valid - halo
-    for i in range(k):
+    n = src.size
+    for i in range(levels):
         totals[i] = 0.0
+    end = n - (2**k - 1)  # M_k, the samples of V_k
+    deep = levels - k
+    size = np.empty(deep + 1, dtype=np.int64)  # size[i]: samples of V_{k+i} (M_{k+i})
+    done = np.zeros(deep + 1, dtype=np.int64)  # done[i]: samples of V_{k+i} written so far
+    size[0] = end
+    for i in range(1, deep + 1):
+        size[i] = size[i - 1] - 2 ** (k + i - 1)
     for s in range(0, end, chunk):
         e = min(s + chunk, end)
-        tail = e == end  # the last block also owns the tails of the shallower levels
-        size = (n_valid if tail else e + halo) - s  # samples of V_{first-1} read
-        for i in range(k):
-            step = 2 ** (first - 1 + i)
-            size -= step
-            own = size if tail else e - s
-            if i == k - 1:  # own == e - s: the block's last V goes to the work array
-                if i == 0:
-                    totals[i] += _last_level(src[s:], v[s:], own, step, not last)
-                else:
-                    totals[i] += _last_level(bufs[(i - 1) % 2], v[s:], own, step, not last)
-            elif i == 0:
-                totals[i] += _level(src[s:], bufs[0], own, size, step)
-            else:
-                totals[i] += _level(bufs[(i - 1) % 2], bufs[i % 2], own, size, step)
+        _sweep_block(src, v, n, k, deep == 0, bufs, s, e, end, totals)
+        done[0] = e
+        for i in range(1, deep + 1):  # level k + i, step 2^(k+i-1)
+            step = 2 ** (k + i - 1)
+            while done[i] < size[i]:
+                start = done[i]
+                stop = min(start + chunk, size[i])
+                if stop + step > done[i - 1]:
+                    break
+                totals[k + i - 1] += _level_in_place(v[start:], stop - start, step, i < deep)
+                done[i] = stop
 
 
 @compiled

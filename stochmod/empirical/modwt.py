@@ -19,7 +19,8 @@ power-of-two length). For Haar the pyramid is a moving-sum doubling: each level 
 addition and one subtraction per sample; unlike differences of one cumulative sum, its
 round-off does not grow with N or with the signal's mean. When only the sums of squares are
 needed (the wavelet variance), the shallow Haar levels are computed several at a time, block
-by block, in one pass over memory; the Haar levels run as compiled loops
+by block, in one pass over memory, and each deeper level follows the one above it a few blocks
+behind, while its input is still in cache; the Haar levels run as compiled loops
 (:mod:`stochmod.empirical.haar_jit`).
 """
 
@@ -36,8 +37,8 @@ from stochmod.core.filters import check_level, default_levels, modwt_filters
 from stochmod.empirical import haar_jit
 
 __all__ = [
-    "modwt_coefficients",
     "iter_modwt",
+    "modwt_coefficients",
     "pyramid",
 ]
 
@@ -55,14 +56,15 @@ def _sumsq(w: np.ndarray) -> float:
     return float(np.vecdot(rows, rows).sum()) + float(np.dot(rest, rest))
 
 
-def _haar_block(levels: int, first: int, chunk: int) -> int:
-    """Number of Haar levels, from `first`, that one sweep of `chunk`-sample blocks serves.
+def _haar_block(levels: int, chunk: int) -> int:
+    """Number of shallow Haar levels, from level 1, that one sweep of `chunk`-sample blocks
+    serves.
 
-    A sweep of k levels recomputes a halo of ``2^(first-1) (2^k - 1)`` samples per block, kept
-    at most ``chunk / _HALO``; a lone level needs no halo.
+    A sweep of k levels recomputes a halo of ``2^k - 1`` samples per block, kept at most
+    ``chunk / _HALO``.
     """
     k = 1
-    while first + k <= levels and 2 ** (first - 1) * (2 ** (k + 1) - 1) <= chunk // _HALO:
+    while k < levels and 2 ** (k + 1) - 1 <= chunk // _HALO:
         k += 1
     return k
 
@@ -77,8 +79,8 @@ def pyramid(
     the time of the yield (overwritten at the next level). With ``sumsq=False`` (and `w_out`)
     the sums of squares are not accumulated (0.0 is yielded): callers that only need the
     coefficients. Extra memory: one copy of `x`
-    and two blocks of ``_CHUNK + _CHUNK / _HALO`` samples. For Haar without `w_out`, levels
-    served by one sweep are yielded together after it.
+    and two blocks of ``_CHUNK + _CHUNK / _HALO`` samples. For Haar without `w_out`, every
+    level is yielded after one pass of the compiled pyramid.
     """
     h, g = modwt_filters(wavelet)
     width1 = h.size
@@ -117,12 +119,11 @@ def pyramid(
 
 
 def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]]:
-    """:func:`pyramid` for Haar without coefficients: several levels per pass over memory.
-
-    The shallow levels, whose filters are short next to a block, are computed block by block
-    through all of them at once (:func:`stochmod.empirical.haar_jit.haar_sweep`); the first
-    level reads `x` directly, so no copy of the signal is made beyond the one work array of
-    the sums.
+    """:func:`pyramid` for Haar without coefficients, in one call of
+    :func:`stochmod.empirical.haar_jit.haar_pyramid_sums`: the shallow levels, whose filters
+    are short next to a block, are computed block by block through all of them at once; each
+    deeper level follows the one above it through memory a few blocks behind. The first level
+    reads `x` directly, so no copy of the signal is made beyond the one work array of the sums.
     """
     v = np.empty(x.size)
     size = min(_CHUNK + _CHUNK // _HALO, x.size)  # a block and its halo
@@ -131,16 +132,12 @@ def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]
     # a strided view (a column of a 2-D array) is made contiguous so that it gives the digits
     # of the same data stored contiguously
     src = np.ascontiguousarray(x)
-    n_valid, j = x.size, 1
-    while j <= levels:
-        k = _haar_block(levels, j, _CHUNK)
-        last = j + k - 1 == levels
-        totals = np.empty(k)
-        haar_jit.haar_sweep(src, v, n_valid, j, k, last, bufs, _CHUNK, totals)
-        for i, total in enumerate(totals):
-            n_valid -= 2 ** (j - 1 + i)
-            yield j + i, total * 0.25 ** (j + i), n_valid
-        src, j = v, j + k
+    totals = np.empty(levels)
+    haar_jit.haar_pyramid_sums(src, v, levels, _haar_block(levels, _CHUNK), bufs, _CHUNK, totals)
+    n_valid = x.size
+    for j in range(1, levels + 1):
+        n_valid -= 2 ** (j - 1)
+        yield j, float(totals[j - 1]) * 0.25**j, n_valid
 
 
 def modwt_coefficients(x: ArrayLike, level: int, wavelet: str = "haar") -> np.ndarray:
