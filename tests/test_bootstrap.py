@@ -5,13 +5,21 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
+import attrs
 import numpy as np
 import pytest
 from scipy import special, stats
 
 import stochmod
 from stochmod.core.errors import InputError
-from stochmod.fit.bootstrap import bootstrap, bootstrap_draws, identification, with_intervals
+from stochmod.fit.bootstrap import (
+    Bootstrap,
+    BootstrapDraws,
+    bootstrap,
+    bootstrap_draws,
+    identification,
+    with_intervals,
+)
 from stochmod.fit.gmwm import gmwm
 
 FREQ = 100.0
@@ -77,8 +85,16 @@ def test_diagnostic_flags_a_slow_gm_and_not_a_fast_one():
     # Tc = 0.2 s in a record of 655 s, both well above the noise: nothing flagged
     fast = gmwm(_record("GM(beta=5.0, sigma2=1e-5) + WN(sigma2=3e-6)", 2**16, 2), "GM+WN", FREQ)
     assert identification(fast).trustworthy
-    assert with_intervals(fast, "auto") is fast  # auto keeps the asymptotic inference
     assert "ok" in identification(fast).summary()
+    # auto keeps every asymptotic interval and takes the J-test's p-value from the bootstrap
+    auto = with_intervals(fast, "auto", 19, rng=4)
+    assert [(a.low, a.high) for a in auto.parameters()] == [(a.low, a.high)
+                                                           for a in fast.parameters()]
+    assert auto.physical() == fast.physical()
+    assert auto.jtest.statistic == fast.jtest.statistic
+    assert auto.jtest.pvalue != fast.jtest.pvalue
+    assert round(auto.jtest.pvalue * 20, 9) % 1 == 0  # (1 + k) / (1 + B)
+    assert "no interval" in auto.resampling.describe()
 
 
 def test_auto_replaces_only_the_flagged_intervals():
@@ -95,6 +111,57 @@ def test_auto_replaces_only_the_flagged_intervals():
     assert auto.jtest.pvalue != plain.jtest.pvalue  # bootstrap p-value, a multiple of 1/41
     assert round(auto.jtest.pvalue * 41, 9) % 1 == 0
     assert "GMWM fit of GM+WN" in auto.summary()
+
+
+def test_diagnostic_flags_a_whole_component():
+    # Tc = 3.3 s in a record of 164 s (no Tc rule): the GM's beta has a relative s.e. above
+    # 0.2, its sigma2 below; both are flagged, the WN is not
+    fit = gmwm(_record("GM(beta=0.3, sigma2=1e-7) + WN(sigma2=3e-6)", 2**14, 2), "GM+WN", FREQ)
+    rel = fit.std_errors / np.abs(fit.model.vector()[fit.free_mask])
+    assert rel[0] > 0.2 > rel[1] and rel[2] < 0.2
+    diag = identification(fit)
+    assert list(diag.flagged) == [True, True, False]
+    assert diag.reasons[0].startswith("relative s.e.") and diag.reasons[1] == "with GM.beta"
+
+
+def test_random_ramp_interval_is_the_exact_pivot_of_its_one_slope():
+    # WN + a ramp of slope s that dominates the deep levels: omega_hat = |s| (to 2 %), and
+    # s / omega ~ N(0, 1), so the exact 95 % interval of omega from one record is
+    # [|s| / q_0.975, |s| / q_0.025] with q the quantiles of |N(0, 1)| (2.2414, 0.031338).
+    # The log-scale basic interval reproduces it; the asymptotic one (eq. 17 V sees the ramp
+    # the record holds, not the spread of slopes) is 10 times too narrow, whence rule 5.
+    n, s = 2**12, 1.3e-5
+    x = np.random.default_rng(4).normal(0.0, 1e-2, n) + s * np.arange(n)
+    fit = gmwm(x, "WN+RR", FREQ)
+    omega = fit.model.vector()[1]
+    assert abs(omega / s - 1) < 0.02
+    diag = identification(fit)
+    assert list(diag.flagged) == [False, True]
+    assert "one realisation per record" in diag.reasons[1]
+    q_lo, q_hi = stats.halfnorm.ppf([0.025, 0.975])
+    asym = fit.parameters()[1]
+    assert asym.high / asym.low < 0.1 * q_hi / q_lo
+    p = with_intervals(fit, "auto", 400, rng=3).parameters()[1]
+    assert abs(p.low / (omega / q_hi) - 1) < 0.15  # B = 400: ~5 % sampling error here
+    assert 0.5 < p.high / (omega / q_lo) < 2.0  # ~30 % here: 10 draws below q_0.025
+
+
+def test_an_estimate_the_refits_do_not_move_gets_an_unbounded_interval():
+    # every replicate returns the estimate (a ramp fitted at omega -> 0): the draws carry no
+    # information, the interval of a positive value is [0, inf), of a signed one (-inf, inf)
+    est = np.array([1e-25, -0.3])
+    draws = BootstrapDraws(estimates=np.tile(est, (50, 1)), physical=np.zeros((50, 0)),
+                           physical_names=(), statistics=np.full(50, np.nan),
+                           converged=np.ones(50, dtype=bool))
+    boot = Bootstrap(draws=draws, estimate=est, physical_values=np.zeros(0), observed=None,
+                     use=np.ones(2, dtype=bool), use_physical=np.zeros(0, dtype=bool))
+    for method in ("basic", "bc", "percentile"):
+        assert boot.interval(0, method=method) == (np.inf, 0.0, np.inf)
+        assert boot.interval(1, method=method) == (np.inf, -np.inf, np.inf)
+    moved = attrs.evolve(draws, estimates=draws.estimates * np.linspace(0.5, 2.0, 50)[:, None])
+    se, low, high = attrs.evolve(boot, draws=moved).interval(0)
+    assert 0 < se < np.inf
+    assert 0 < low < est[0] < high < np.inf
 
 
 def test_jtest_bootstrap_pvalue_is_uniform_under_the_true_model_and_small_under_a_wrong_one():

@@ -64,6 +64,7 @@ __all__ = [
     "INTERVAL_METHODS",
     "MAX_RELATIVE_SE",
     "MAX_TC_FRACTION",
+    "MIN_SHRINK_FACTOR",
     "MIN_SINGULAR_RATIO",
     "MIN_TC_SAMPLES",
     "Bootstrap",
@@ -93,6 +94,10 @@ MAX_RELATIVE_SE = 0.2
 #: Smallest ratio s_min / s_max of the weighted, column-scaled Jacobian
 #: (:func:`stochmod.fit.engine.weighted_svd`) for which the sandwich is trusted.
 MIN_SINGULAR_RATIO = 1e-4
+#: A component whose own WV sampling variance (:meth:`Process.wv_sampling_covariance`) falls
+#: by less than this factor when the record is 4 times longer is realised once per record
+#: (a random ramp's slope): no record length makes its asymptotic interval right.
+MIN_SHRINK_FACTOR = 2.0
 #: Replicates per task handed to an executor.
 _CHUNK = 25
 #: (tolerance, evaluation cap) of a replicate's refit: looser than the fit's own
@@ -138,10 +143,13 @@ class Identification:
 def identification(fit: GMWMResult, *, max_tc_fraction: float = MAX_TC_FRACTION,
                    min_tc_samples: float = MIN_TC_SAMPLES,
                    max_relative_se: float = MAX_RELATIVE_SE,
-                   min_singular_ratio: float = MIN_SINGULAR_RATIO) -> Identification:
+                   min_singular_ratio: float = MIN_SINGULAR_RATIO,
+                   min_shrink_factor: float = MIN_SHRINK_FACTOR) -> Identification:
     """The identification diagnostic: where a fit's asymptotic intervals are not trustworthy.
 
-    A free parameter is flagged when one of these rules holds:
+    A free parameter is flagged when one of these rules holds for it, and then so are the
+    other free parameters of its component (they are estimated jointly: a GM whose beta runs
+    towards the random-walk limit drags its sigma2 along):
 
     1. **slow component**: its component has a correlation time (the physical value ``Tc``:
        GM, AR's slowest root) ``Tc > max_tc_fraction * T``, ``T = N / freq`` the record
@@ -157,15 +165,22 @@ def identification(fit: GMWMResult, *, max_tc_fraction: float = MAX_TC_FRACTION,
     4. **ill-conditioned**: the singular values of the weighted, column-scaled Jacobian
        ``L D`` (``Omega = L' L``) have ``s_min / s_max < min_singular_ratio``, or the
        sandwich fails: the linearisation of eq. 22 is not reliable; every parameter is
-       flagged.
+       flagged;
+    5. **realised once per record**: the component declares its own WV sampling covariance
+       (:meth:`~stochmod.core.process.Process.wv_sampling_covariance`) and its trace falls by
+       less than `min_shrink_factor` when the record is 4 times longer (a random ramp: one
+       slope per record, ``s^2 / omega^2 ~ chi2(1)``). The eq. 17 V of the record sees the
+       ramp it holds, not the spread of the slope across records, so the asymptotic
+       interval is the uncertainty given the slope, whatever the record length.
 
     Parameters
     ----------
     fit : GMWMResult
         The fit.
-    max_tc_fraction, min_tc_samples, max_relative_se, min_singular_ratio : float
+    max_tc_fraction, min_tc_samples, max_relative_se, min_singular_ratio, min_shrink_factor : float
         The rules' thresholds (dimensionless; defaults :data:`MAX_TC_FRACTION`,
-        :data:`MIN_TC_SAMPLES`, :data:`MAX_RELATIVE_SE`, :data:`MIN_SINGULAR_RATIO`).
+        :data:`MIN_TC_SAMPLES`, :data:`MAX_RELATIVE_SE`, :data:`MIN_SINGULAR_RATIO`,
+        :data:`MIN_SHRINK_FACTOR`).
 
     Returns
     -------
@@ -191,6 +206,16 @@ def identification(fit: GMWMResult, *, max_tc_fraction: float = MAX_TC_FRACTION,
         if why:
             for i in np.flatnonzero(owner == k):
                 reasons[i].append(why)
+    n_coef = np.asarray(fit.empirical.n_coef[: fit.levels], dtype=np.float64)
+    for k, (label, proc) in enumerate(zip(fit.model.labels, fit.model.processes)):
+        own = proc.wv_sampling_covariance(n_coef, freq, fit.empirical.wavelet)
+        if own is None:
+            continue
+        longer = proc.wv_sampling_covariance(4 * n_coef, freq, fit.empirical.wavelet)
+        if not np.trace(longer) * min_shrink_factor < np.trace(own):
+            for i in np.flatnonzero(owner == k):
+                reasons[i].append(f"{label}: one realisation per record (its WV's sampling "
+                                  "variance does not fall with N)")
     _, _, s = weighted_svd(fit.jacobian, fit.omega)
     if not full_rank(s, len(fit.free_names), min_singular_ratio):
         ratio = s[-1] / s[0] if s.size else 0.0
@@ -207,6 +232,12 @@ def identification(fit: GMWMResult, *, max_tc_fraction: float = MAX_TC_FRACTION,
         for i, value in enumerate(rel):
             if not value <= max_relative_se:
                 reasons[i].append(f"relative s.e. {value:.2g} > {max_relative_se:g}")
+    for k, label in enumerate(fit.model.labels):  # a component's parameters together
+        mine = np.flatnonzero(owner == k)
+        named = [fit.free_names[i] for i in mine if reasons[i]]
+        for i in mine:
+            if not reasons[i] and named:
+                reasons[i].append(f"with {', '.join(named)}")
     return Identification(tuple(fit.free_names), tuple("; ".join(r) for r in reasons))
 
 
@@ -401,9 +432,14 @@ def _interval(draws: np.ndarray, value: float, alpha: float, method: str
     d = np.sort(draws[np.isfinite(draws)])
     if d.size < 2 or not math.isfinite(value):
         return math.nan, math.nan, math.nan
+    a = np.array([alpha / 2, 1 - alpha / 2])
+    if np.all(np.quantile(d, a) == value):
+        # the refits did not move it: an estimate at its boundary (a random ramp fitted to
+        # no ramp, omega -> 0), where resampling at the estimate reproduces the estimate and
+        # says nothing of the parameter's range; the record does not bound it here
+        return math.inf, (0.0 if value > 0 else -math.inf), math.inf
     lo_q, hi_q = np.quantile(d, _ONE_SIGMA)
     se = float(0.5 * (hi_q - lo_q))
-    a = np.array([alpha / 2, 1 - alpha / 2])
     if method == "bc":
         below = (np.searchsorted(d, value, "left") + np.searchsorted(d, value, "right")) / 2
         frac = np.clip(below / d.size, 0.5 / d.size, 1 - 0.5 / d.size)
@@ -525,10 +561,15 @@ class Bootstrap:
         names = [n for n, u in zip(self.draws.physical_names, self.use_physical) if u]
         free = [str(n) for n, u in zip(self.diagnostic.names if self.diagnostic else (),
                                        self.use) if u]
-        which = ("every parameter" if self.diagnostic is None
-                 else ", ".join(free + names) + " (flagged by the identification diagnostic)")
+        if self.diagnostic is None:
+            which = "intervals of every parameter"
+        elif free or names:
+            which = (f"intervals of {', '.join(free + names)} (flagged by the identification "
+                     "diagnostic)")
+        else:
+            which = "no interval (the identification diagnostic flags none)"
         return (f"bootstrap ({self.method}, B = {self.draws.size}, {self.draws.failed} failed "
-                f"refits): intervals of {which}; J-test p-value from the bootstrap")
+                f"refits): {which}; J-test p-value from the bootstrap")
 
     def jtest(self) -> JTest | None:
         """The J-test with its bootstrap p-value (None without an asymptotic statistic)."""
@@ -544,7 +585,8 @@ class Bootstrap:
 def bootstrap(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.SeedSequence = 0,
               executor: Executor | None = None, apply: str = "all",
               method: str = DEFAULT_METHOD,
-              diagnostic: Identification | None = None) -> GMWMResult:
+              diagnostic: Identification | None = None,
+              draws: BootstrapDraws | None = None) -> GMWMResult:
     """The fit with bootstrap inference attached (``fit.resampling``).
 
     ``parameters()``, ``physical()`` and ``jtest`` of the returned fit use the bootstrap
@@ -567,6 +609,9 @@ def bootstrap(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.SeedSe
         Interval method (:class:`Bootstrap`; default basic on the log scale).
     diagnostic : Identification, optional
         The diagnostic for ``apply="flagged"`` (default: :func:`identification` of `fit`).
+    draws : BootstrapDraws, optional
+        Replicates already drawn for `fit` (:func:`bootstrap_draws`); `n_boot`, `rng` and
+        `executor` are then not used.
 
     Returns
     -------
@@ -577,7 +622,11 @@ def bootstrap(fit: GMWMResult, n_boot: int = 200, *, rng: int | np.random.SeedSe
         raise InputError(f"apply must be 'all' or 'flagged', got {apply!r}")
     if method not in INTERVAL_METHODS:
         raise InputError(f"method must be one of {INTERVAL_METHODS}, got {method!r}")
-    draws = bootstrap_draws(fit, n_boot, rng=rng, executor=executor)
+    if draws is None:
+        draws = bootstrap_draws(fit, n_boot, rng=rng, executor=executor)
+    elif draws.estimates.shape[1] != len(fit.free_names):
+        raise InputError(f"draws of {draws.estimates.shape[1]} parameters do not belong to a "
+                         f"fit of {len(fit.free_names)} free parameters")
     p = len(fit.free_names)
     if apply == "all":
         use, diag = np.ones(p, dtype=bool), None
@@ -608,21 +657,25 @@ def _computed_covariances(fit: GMWMResult) -> dict[str, Any]:
 
 def with_intervals(fit: GMWMResult, intervals: str, n_boot: int = 200, *,
                    rng: int | np.random.SeedSequence = 0,
-                   executor: Executor | None = None) -> GMWMResult:
+                   executor: Executor | None = None,
+                   draws: BootstrapDraws | None = None) -> GMWMResult:
     """The fit with the inference ``stochmod.gmwm(..., intervals=)`` asks for.
 
     ``"asymptotic"``: `fit` itself (eqs. 22-23, 27). ``"bootstrap"``: :func:`bootstrap` of
-    every parameter. ``"auto"``: the bootstrap only when :func:`identification` flags a
-    parameter, and then for the flagged parameters (and their components' physical values)
-    and the J-test; `fit` itself otherwise.
+    every parameter and the J-test. ``"auto"``: the bootstrap for the parameters
+    :func:`identification` flags (and their components' physical values), the asymptotic
+    intervals for the others, and the bootstrap p-value of the J-test always: no diagnostic
+    of the fit tells where the chi-square reference of eq. 27 holds (in the Monte Carlo study
+    of docs/gmwm_monte_carlo.md its size is 0.10-0.20 at a nominal 0.05 on models whose
+    every parameter the diagnostic trusts), and the replicates the J-test needs are those
+    of the intervals. `draws` (:func:`bootstrap_draws` of `fit`) replaces `n_boot`, `rng`
+    and `executor`.
     """
     if intervals not in INTERVALS:
         raise InputError(f"intervals must be one of {INTERVALS}, got {intervals!r}")
     if intervals == "asymptotic":
         return fit
     if intervals == "bootstrap":
-        return bootstrap(fit, n_boot, rng=rng, executor=executor)
-    diag = identification(fit)
-    if diag.trustworthy:
-        return fit
-    return bootstrap(fit, n_boot, rng=rng, executor=executor, apply="flagged", diagnostic=diag)
+        return bootstrap(fit, n_boot, rng=rng, executor=executor, draws=draws)
+    return bootstrap(fit, n_boot, rng=rng, executor=executor, apply="flagged",
+                     diagnostic=identification(fit), draws=draws)

@@ -124,11 +124,13 @@ def gmwm(
         (default): the sandwich of eqs. 22-23 with log-scale delta-method intervals and the
         chi-square J-test of eq. 27. ``"bootstrap"``: a parametric bootstrap of `n_boot`
         replicates for every parameter and the J-test (:mod:`stochmod.fit.bootstrap`).
-        ``"auto"``: the bootstrap only when the identification diagnostic
+        ``"auto"``: the bootstrap for the parameters the identification diagnostic
         (:func:`stochmod.fit.bootstrap.identification`: a correlation time above T/10 or
         below 2 samples, an asymptotic relative standard error above 0.2, an ill-conditioned
-        weighted Jacobian) flags a parameter, and then for the flagged parameters and the
-        J-test. The estimates are the same in all three. Analytic fits of one record only.
+        weighted Jacobian, a component realised once per record such as a random ramp; a
+        component's parameters together) flags, the asymptotic intervals for the others, and
+        the bootstrap p-value of the J-test always. The estimates are the same in all three.
+        Analytic fits of one record only.
     n_boot : int
         Bootstrap replicates (intervals "auto" and "bootstrap"), seeded by `rng`.
     executor : concurrent.futures.Executor, optional
