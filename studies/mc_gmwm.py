@@ -19,14 +19,18 @@ gmwm its default ``rng=0``)::
     python studies/mc_gmwm.py --only 2GM+WN --reps 20 --out /tmp/mc.md
 
 With ``--bootstrap B`` the study checks the parametric bootstrap instead
-(:mod:`stochmod.fit.bootstrap`): each record gets the default fit only, its asymptotic
-intervals, the identification diagnostic, and B bootstrap replicates (seeded by
-``SeedSequence(SEED, spawn_key=(case.seed_key, r, 1))``); per parameter it reports how often
-the diagnostic flags it and the coverage of the asymptotic, bootstrap (basic, the default;
-BC; percentile) and ``intervals="auto"`` intervals with binomial standard errors, per model the J-test size
-with the chi-square and the bootstrap p-values::
+(:mod:`stochmod.fit.bootstrap`): each record gets the default fit only and B bootstrap
+replicates (seeded by ``SeedSequence(SEED, spawn_key=(case.seed_key, r, 1))``). The fit (its
+signal dropped, its eq. 17 V kept) and the draws are saved with ``--save`` after every
+record; the tables are computed from them: per parameter how often the identification
+diagnostic flags it and the coverage of the asymptotic, bootstrap (basic, the default; BC;
+percentile) and ``intervals="auto"`` intervals with binomial standard errors, per model the
+J-test size with the chi-square, bootstrap and "auto" p-values. ``--load`` recomputes the
+tables from saved fits and draws with the installed stochmod (a changed diagnostic or
+interval rule, no refits); a run cut short leaves the records it finished. Cases run in the
+order of ``--only``::
 
-    python studies/mc_gmwm.py --bootstrap 100 --reps 40 --save /tmp/boot.pkl --out /tmp/mc_boot.md
+    python studies/mc_gmwm.py --bootstrap 200 --reps 40 --save /tmp/boot.pkl --out /tmp/mc_boot.md
     python studies/mc_gmwm.py --load /tmp/boot.pkl          # the tables again, no fits
 
 Run time with the default settings: about 16 min wall clock with 2 workers on the 2-core
@@ -47,11 +51,19 @@ import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 
+import attrs
 import numpy as np
 
 import stochmod
 from stochmod.core.errors import EstimationError
-from stochmod.fit.bootstrap import DEFAULT_METHOD, INTERVAL_METHODS, bootstrap, identification
+from stochmod.fit.bootstrap import (
+    DEFAULT_METHOD,
+    INTERVAL_METHODS,
+    bootstrap,
+    bootstrap_draws,
+    identification,
+    with_intervals,
+)
 from stochmod.fit.gmwm import gmwm
 
 FREQ = 100.0
@@ -137,8 +149,11 @@ def one_replication(case: Case, rep: int) -> dict:
 
 
 def one_bootstrap_replication(case: Case, rep: int, n_boot: int) -> dict:
-    """Simulate replication `rep` of `case`, fit it (default weighting), and bootstrap the fit
-    with `n_boot` replicates: every interval method, the diagnostic and both J-test p-values."""
+    """Simulate replication `rep` of `case`, fit it (default weighting) and draw `n_boot`
+    bootstrap replicates of the fit. The fit (without its signal, with its eq. 17 V) and the
+    draws are kept: :func:`summarise_bootstrap` computes the diagnostic, every interval and
+    both J-test p-values from them with the installed stochmod, so ``--load`` re-evaluates a
+    saved run under the current rules without refitting."""
     truth = stochmod.model_from_spec(case.spec, FREQ)
     x = truth.simulate(case.n, np.random.default_rng(np.random.SeedSequence(SEED, spawn_key=(case.seed_key, rep))))
     out: dict = {"rep": rep}
@@ -148,23 +163,50 @@ def one_bootstrap_replication(case: Case, rep: int, n_boot: int) -> dict:
         starts = (truth,) if case.start_at_truth else ()
         fit = gmwm(x, truth.freed(), FREQ, starts=starts)
         out["time"] = time.perf_counter() - t0
+        try:
+            covariance = fit.wv_covariance
+        except EstimationError:
+            covariance = None
+        _ = fit.jtest_form
+        t0, c0 = time.perf_counter(), time.process_time()
+        out["draws"] = bootstrap_draws(fit, n_boot, rng=np.random.SeedSequence(SEED, spawn_key=(case.seed_key, rep, 1)))
+        out["time_boot"] = time.perf_counter() - t0
+        out["cpu_boot"] = time.process_time() - c0
+        out["fit"] = fit if covariance is None else attrs.evolve(fit, signal=None, covariance=covariance)
+    out["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    return out
+
+
+def _ends(params) -> np.ndarray:
+    return np.array([[p.low, p.high] for p in params])
+
+
+def evaluate_bootstrap(record: dict) -> dict:
+    """Diagnostic, interval ends of every kind and J-test p-values of one saved record."""
+    fit, draws = record["fit"], record["draws"]
+    out: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
         out["est"], out["low"], out["high"], out["fail"] = _intervals(fit)
         out["flagged"] = identification(fit).flagged
         jt = fit.jtest
-        t0, c0 = time.perf_counter(), time.process_time()
-        boot = bootstrap(fit, n_boot, rng=np.random.SeedSequence(SEED, spawn_key=(case.seed_key, rep, 1)))
-        out["time_boot"] = time.perf_counter() - t0
-        out["cpu_boot"] = time.process_time() - c0
-        res = boot.resampling
-        p = len(fit.free_names)
-        for method in INTERVAL_METHODS:
-            ends = np.array([res.interval(i, method=method)[1:] for i in range(p)])
-            out[f"low_{method}"], out[f"high_{method}"] = ends[:, 0], ends[:, 1]
-        out["boot_failed"] = res.draws.failed
         out["jtest_p"] = np.nan if jt is None else jt.pvalue
+        boot = bootstrap(fit, draws=draws)
+        res = boot.resampling
+        for method in INTERVAL_METHODS:
+            ends = np.array([res.interval(i, method=method)[1:] for i in range(out["est"].size)])
+            out[f"low_{method}"], out[f"high_{method}"] = ends[:, 0], ends[:, 1]
         bj = res.jtest()
         out["jtest_p_boot"] = np.nan if bj is None else bj.pvalue
-    out["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+        try:
+            auto = with_intervals(fit, "auto", draws=draws)
+            out["low_auto"], out["high_auto"] = _ends(auto.parameters()).T
+        except EstimationError:  # an unflagged parameter's asymptotic interval fails
+            out["low_auto"] = out["high_auto"] = np.full(out["est"].size, np.nan)
+            auto = with_intervals(fit, "auto", draws=draws)
+        ja = auto.jtest
+        out["jtest_p_auto"] = np.nan if ja is None else ja.pvalue
+    out["boot_failed"] = draws.failed
     return out
 
 
@@ -174,11 +216,12 @@ def _rate(hits: np.ndarray) -> str:
     return f"{p:.2f} ({np.sqrt(p * (1 - p) / n):.2f})"
 
 
-def summarise_bootstrap(case: Case, results: list[dict], n_boot: int) -> str:
-    """Markdown table of one case's bootstrap study."""
+def summarise_bootstrap(case: Case, records: list[dict], n_boot: int) -> str:
+    """Markdown table of one case's bootstrap study (from the saved fits and draws)."""
     truth = stochmod.model_from_spec(case.spec, FREQ)
     names, tv = truth.param_names, truth.vector()
-    R = len(results)
+    R = len(records)
+    results = [evaluate_bootstrap(r) for r in records]
 
     def covered(key: str) -> np.ndarray:
         low = np.array([r[f"low{key}"] for r in results])
@@ -188,21 +231,24 @@ def summarise_bootstrap(case: Case, results: list[dict], n_boot: int) -> str:
     flagged = np.array([r["flagged"] for r in results])
     asym = covered("")
     boot = {m: covered(f"_{m}") for m in INTERVAL_METHODS}
-    auto = np.where(flagged, boot[DEFAULT_METHOD], asym)
-    rows = [("| parameter | truth | flagged | cover asympt. | cover boot. basic (default) "
-             "| cover boot. BC | cover boot. percentile | cover auto |"),
-            "|---|---|---|---|---|---|---|---|"]
+    auto = covered("_auto")
+    others = [m for m in INTERVAL_METHODS if m != DEFAULT_METHOD]
+    rows = [("| parameter | truth | flagged | cover asympt. | cover boot. "
+             f"{DEFAULT_METHOD} (default) | "
+             + " | ".join(f"cover boot. {m}" for m in others) + " | cover auto |"),
+            "|---|---|---|---|---|" + "---|" * len(others) + "---|"]
     for i, name in enumerate(names):
         rows.append(f"| {name} | {tv[i]:.4g} | {flagged[:, i].mean():.2f} | {_rate(asym[:, i])} "
-                    f"| {_rate(boot['basic'][:, i])} | {_rate(boot['bc'][:, i])} "
-                    f"| {_rate(boot['percentile'][:, i])} | {_rate(auto[:, i])} |")
+                    f"| {_rate(boot[DEFAULT_METHOD][:, i])} | "
+                    + " | ".join(_rate(boot[m][:, i]) for m in others)
+                    + f" | {_rate(auto[:, i])} |")
     p = np.array([r["jtest_p"] for r in results])
     pb = np.array([r["jtest_p_boot"] for r in results])
+    pa = np.array([r["jtest_p_auto"] for r in results])
     ok = np.isfinite(p) & np.isfinite(pb)
     any_flag = flagged.any(axis=1)
-    pauto = np.where(any_flag, pb, p)
     jt = (f"chi-square {_rate(p[ok] < 0.05)}, bootstrap {_rate(pb[ok] < 0.05)}, auto "
-          f"{_rate(pauto[ok] < 0.05)} ({ok.sum()} tests)") if ok.any() else "n/a"
+          f"{_rate(pa[ok] < 0.05)} ({ok.sum()} tests)") if ok.any() else "n/a"
     lines = [
         f"### {case.name}: R = {R}, N = {case.n} (2^{int(np.log2(case.n))}), 100 Hz, B = {n_boot}",
         "",
@@ -211,14 +257,14 @@ def summarise_bootstrap(case: Case, results: list[dict], n_boot: int) -> str:
         *rows,
         "",
         f"- J-test rejection rate at 5 %: {jt}",
-        f"- records where the diagnostic flags some parameter (auto runs the bootstrap): {any_flag.mean():.2f}",
+        f"- records where the diagnostic flags some parameter: {any_flag.mean():.2f}",
         (f"- inference failures of the asymptotic intervals: {sum(r['fail'] != '' for r in results)}/{R}; "
          f"failed bootstrap refits: {sum(r['boot_failed'] for r in results)} of {R * n_boot}"),
-        f"- replications with a warning: {sum(bool(r['warnings']) for r in results)}"
-        + "".join(f"; {m}" for m in sorted({m for r in results for m in r["warnings"]})),
-        (f"- mean time: fit {np.mean([r['time'] for r in results]):.2f} s; bootstrap "
-         f"{np.mean([r['time_boot'] for r in results]):.1f} s wall, "
-         f"{np.mean([r['cpu_boot'] for r in results]):.1f} s CPU"),
+        f"- replications with a warning: {sum(bool(r['warnings']) for r in records)}"
+        + "".join(f"; {m}" for m in sorted({m for r in records for m in r["warnings"]})),
+        (f"- mean time: fit {np.mean([r['time'] for r in records]):.2f} s; bootstrap "
+         f"{np.mean([r['time_boot'] for r in records]):.1f} s wall, "
+         f"{np.mean([r['cpu_boot'] for r in records]):.1f} s CPU"),
     ]
     return "\n".join(lines)
 
@@ -298,29 +344,33 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--load", help="bootstrap study: summarise the results pickled by --save "
                         "(no fits)")
     args = parser.parse_args(argv)
+    by_name = {c.name: c for c in CASES}
+    unknown = sorted(set(args.only or ()) - set(by_name))
+    if unknown:
+        parser.error(f"unknown case(s) {unknown}; choose from {sorted(by_name)}")
     chosen = [dataclasses.replace(c, n=args.n or c.n, reps=args.reps or c.reps)
-              for c in CASES if not args.only or c.name in args.only]
+              for c in ([by_name[n] for n in args.only] if args.only else CASES)]  # --only's order
     t_start = time.perf_counter()
     if args.load:
         with open(args.load, "rb") as fh:
             saved = pickle.load(fh)
         sections = [summarise_bootstrap(c, saved["results"][c.name], saved["n_boot"])
-                    for c in chosen]
+                    for c in chosen if saved["results"].get(c.name)]
         print("\n\n".join(sections))
         return
     with ProcessPoolExecutor(args.workers) as pool:
         if args.bootstrap:
             futures = [[pool.submit(one_bootstrap_replication, c, r, args.bootstrap)
                         for r in range(c.reps)] for c in chosen]
-            for c, fs in zip(chosen, futures):  # progress on stderr
+            done: dict[str, list[dict]] = {c.name: [] for c in chosen}
+            for c, fs in zip(chosen, futures):  # in order; progress on stderr
                 for r, f in enumerate(fs):
-                    f.add_done_callback(lambda _, c=c, r=r: print(f"{c.name} {r} done", file=sys.stderr,
-                                                                  flush=True))
-            done = {c.name: [f.result() for f in fs] for c, fs in zip(chosen, futures)}
+                    done[c.name].append(f.result())
+                    print(f"{c.name} {r} done", file=sys.stderr, flush=True)
+                    if args.save:  # after every record: a run cut short keeps what it did
+                        with open(args.save, "wb") as fh:
+                            pickle.dump({"n_boot": args.bootstrap, "results": done}, fh)
             sections = [summarise_bootstrap(c, done[c.name], args.bootstrap) for c in chosen]
-            if args.save:
-                with open(args.save, "wb") as fh:
-                    pickle.dump({"n_boot": args.bootstrap, "results": done}, fh)
         else:
             futures = [[pool.submit(one_replication, c, r) for r in range(c.reps)] for c in chosen]
             sections = [summarise(c, [f.result() for f in fs]) for c, fs in zip(chosen, futures)]
