@@ -19,7 +19,10 @@ tests/nav/test_n380.py compares stochmod with these runs; the stochmod side (``s
 Run ``python studies/nav_n380_ensemble.py --pyins --seeds 10`` (the missing pyins runs, serially,
 one at a time) and then ``python studies/nav_n380_ensemble.py`` (stochmod on the cached seeds and
 the table: per-outage mean, sd and standard error of both, and of the paired difference
-stochmod - pyins). ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
+stochmod - pyins). ``--velocity`` does the same with position + velocity updates and no lever arm (the
+settings of the single-start comparison), cached in
+``tests/nav/reference/nav_pyins_n380_ensemble_velocity.json``; ``--first-seed`` starts the
+seeds elsewhere than 0. ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
 (the covariance held in ``(dv - v_hat x psi, psi)`` across each feedback;
 docs/navigation_real_drive.md, "The cause").
 
@@ -42,20 +45,28 @@ from stochmod.nav.filter import ERROR_MODELS
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-from _n380 import (ENSEMBLE_JSON, LEVER_ARM, OUTAGE_DURATION, OUTAGE_STARTS,
-                   load_cache, load_n380, max_outage_errors, stochmod_runs, summary, verdict)
+from _n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, LEVER_ARM, OUTAGE_DURATION,
+                   OUTAGE_STARTS, load_cache, load_n380, max_outage_errors, stochmod_runs,
+                   summary, verdict)
 
 
-def run_pyins_seeds(drive, seeds: list[int]) -> dict:
-    """Run pyins for the seeds not in the cache, one at a time, saving after each run."""
+def run_pyins_seeds(drive, seeds: list[int], velocity: bool = False) -> dict:
+    """Run pyins for the seeds not in the cache, one at a time, saving after each run.
+    ``velocity=False``: position updates, lever arm `LEVER_ARM` (``ENSEMBLE_JSON``); True:
+    position + velocity updates, no lever arm (``ENSEMBLE_VELOCITY_JSON``)."""
     import pyins
-    from nav_pyins_n380 import (ACCEL, GYRO, INIT, POSITION_SD, initial_error, raw_inputs,
-                                run_pyins, states_at_outages)
+    from nav_pyins_n380 import (ACCEL, GYRO, INIT, POSITION_SD, VELOCITY_SD, initial_error,
+                                raw_inputs, run_pyins, states_at_outages)
 
-    cache = load_cache()
-    cache.update(pyins_version=pyins.__version__, lever_arm_m=list(LEVER_ARM), mode="position",
-                 settings={"gyro": GYRO, "accel": ACCEL, "position_sd_m": POSITION_SD,
-                           "initial": INIT, "time_step_s": 0.1})
+    path = ENSEMBLE_VELOCITY_JSON if velocity else ENSEMBLE_JSON
+    lever_arm = (0.0, 0.0, 0.0) if velocity else LEVER_ARM
+    cache = load_cache(path)
+    settings = {"gyro": GYRO, "accel": ACCEL, "position_sd_m": POSITION_SD, "initial": INIT,
+                "time_step_s": 0.1}
+    if velocity:
+        settings["velocity_sd_m_s"] = VELOCITY_SD
+    cache.update(pyins_version=pyins.__version__, lever_arm_m=list(lever_arm),
+                 mode="position_velocity" if velocity else "position", settings=settings)
     increments, gnss, pva0 = raw_inputs(drive)
     # both filters are causal: nothing after the last outage changes its errors or the states
     # before the outages, so pyins stops 1 s after it (28 % of its ~10 min a run saved)
@@ -64,16 +75,16 @@ def run_pyins_seeds(drive, seeds: list[int]) -> dict:
     for seed in seeds:
         if str(seed) in cache["runs"]:
             continue
-        result, wall = run_pyins(increments, gnss, pva0, velocity=False, lever_arm=LEVER_ARM,
-                                 seed=seed)
+        result, wall = run_pyins(increments, gnss, pva0, velocity=velocity,
+                                 lever_arm=None if velocity else lever_arm, seed=seed)
         traj = result.trajectory
         errors = max_outage_errors(traj.index.to_numpy(), traj["lat"].to_numpy(),
                                    traj["lon"].to_numpy(), drive.reference, drive.t0)
         cache["runs"][str(seed)] = {"initial_error": initial_error(seed),
                                     "max_horizontal_error_m": errors, "wall_s": wall,
                                     "states_at_outages": states_at_outages(result, drive)}
-        ENSEMBLE_JSON.parent.mkdir(exist_ok=True)
-        ENSEMBLE_JSON.write_text(json.dumps(cache, indent=1) + "\n")
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(json.dumps(cache, indent=1) + "\n")
         print(f"pyins seed {seed}: {', '.join(f'{e:6.1f}' for e in errors)} m  "
               f"(wall {wall:.0f} s)", flush=True)
     return cache
@@ -126,8 +137,9 @@ def compare_states(ours: dict[str, tuple[np.ndarray, dict]], cache: dict) -> Non
             print(line)
 
 
-def print_table(s: dict[str, np.ndarray]) -> None:
-    print(f"{int(s['n'])} seeded starts, position updates, lever arm {LEVER_ARM} m in both")
+def print_table(s: dict[str, np.ndarray], cache: dict) -> None:
+    print(f"{int(s['n'])} seeded starts, {cache.get('mode', 'position')} updates, lever arm "
+          f"{tuple(cache.get('lever_arm_m', LEVER_ARM))} m in both")
     print("outage | stochmod mean (sd) | pyins mean (sd) | stochmod - pyins mean +- se")
     for k in range(len(s["pyins_mean"])):
         print(f"{k + 1:6d} | {s['stochmod_mean'][k]:7.1f} ({s['stochmod_sd'][k]:5.1f})    | "
@@ -140,6 +152,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pyins", action="store_true", help="run the missing pyins seeds")
     parser.add_argument("--seeds", type=int, default=10, help="seeds 0 .. N-1 (default 10)")
+    parser.add_argument("--velocity", action="store_true",
+                        help="position + velocity updates without a lever arm (the settings of "
+                             "the single-start comparison) instead of position updates with "
+                             "the fitted lever arm")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--no-stochmod", action="store_true", help="skip stochmod's runs")
     parser.add_argument("--states", action="store_true",
                         help="also compare the two filters' states before each outage")
@@ -147,14 +164,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="stochmod's error model (default psi; modified-phi: pyins' reset)")
     args = parser.parse_args(argv)
     drive = load_n380()
-    cache = run_pyins_seeds(drive, list(range(args.seeds))) if args.pyins else load_cache()
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    cache = (run_pyins_seeds(drive, seeds, args.velocity) if args.pyins
+             else load_cache(ENSEMBLE_VELOCITY_JSON if args.velocity else ENSEMBLE_JSON))
     if not args.no_stochmod and cache["runs"]:
         ours = stochmod_runs(drive, cache, error_model=args.error_model)
         print(f"stochmod error model: {args.error_model}")
         for seed in sorted(ours, key=int):
             print(f"seed {seed}: stochmod {np.round(ours[seed][0], 1)} m, pyins "
                   f"{np.round(cache['runs'][seed]['max_horizontal_error_m'], 1)} m")
-        print_table(summary({s: o[0] for s, o in ours.items()}, cache))
+        print_table(summary({s: o[0] for s, o in ours.items()}, cache), cache)
         if args.states:
             compare_states(ours, cache)
     return 0

@@ -39,6 +39,7 @@ from stochmod.nav.records import GnssData, ImuData
 
 __all__ = [
     "ENSEMBLE_JSON",
+    "ENSEMBLE_VELOCITY_JSON",
     "LEVER_ARM",
     "PEER_JSON",
     "SHORTNAME",
@@ -70,6 +71,10 @@ PEER_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380.json"
 #: fixed (written by studies/nav_n380_ensemble.py): per seed the start, the outage errors and
 #: the state before each outage.
 ENSEMBLE_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380_ensemble.json"
+#: The same for position + velocity updates without a lever arm, the settings of the
+#: single-start comparison (studies/nav_n380_ensemble.py --velocity).
+ENSEMBLE_VELOCITY_JSON = (Path(__file__).parent / "reference"
+                          / "nav_pyins_n380_ensemble_velocity.json")
 #: The IMU-to-antenna lever arm fitted from the drive's data (body x/y/z, m;
 #: docs/navigation.md, "Real drive").
 LEVER_ARM = (-1.3, 0.0, 0.0)
@@ -279,21 +284,25 @@ def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,
                    outages=outages)
 
 
-def load_cache() -> dict:
-    """The cached pyins runs (``{"runs": {seed: {...}}}``), empty when there are none."""
-    if ENSEMBLE_JSON.exists():
-        return json.loads(ENSEMBLE_JSON.read_text())
+def load_cache(path: Path = ENSEMBLE_JSON) -> dict:
+    """The cached pyins runs in `path` (``{"runs": {seed: {...}}}``), empty when there are
+    none."""
+    if path.exists():
+        return json.loads(path.read_text())
     return {"runs": {}}
 
 
 def stochmod_runs(drive, cache: dict, **kwargs) -> dict[str, tuple[np.ndarray, dict]]:
     """stochmod's per-outage maximum horizontal error (m) and state before each outage
     (:func:`states_before_outages`) for every cached seed, started from the same initial error
-    as pyins' run of that seed. `kwargs` go to ``run_stochmod``."""
+    as pyins' run of that seed, with the cache's updates (``mode``: ``"position"`` or
+    ``"position_velocity"``) and lever arm (``lever_arm_m``). `kwargs` go to ``run_stochmod``."""
     out = {}
+    velocity = cache.get("mode", "position") == "position_velocity"
+    lever_arm = tuple(cache.get("lever_arm_m", LEVER_ARM))
     for seed, run in cache["runs"].items():
-        result = run_stochmod(drive, velocity=False, initial_error=run["initial_error"],
-                              lever_arm=LEVER_ARM, **kwargs)
+        result = run_stochmod(drive, velocity=velocity, initial_error=run["initial_error"],
+                              lever_arm=lever_arm, **kwargs)
         out[seed] = (np.array(max_outage_errors(result.time, result.lat, result.lon,
                                                 drive.reference, drive.t0)),
                      states_before_outages(result, drive))

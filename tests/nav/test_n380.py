@@ -13,9 +13,9 @@ import pytest
 from stochmod.nav import earth, frames
 from stochmod.nav.logs import read_gnss_csv, read_imu_csv
 
-from ._n380 import (ENSEMBLE_JSON, LEVER_ARM, PEER_JSON, load_n380, max_outage_errors,
-                    onavdata_missing_reason, run_stochmod, stochmod_runs, summary, verdict,
-                    write_navigate_csvs)
+from ._n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, LEVER_ARM, PEER_JSON, load_n380,
+                    max_outage_errors, onavdata_missing_reason, run_stochmod, stochmod_runs,
+                    summary, verdict, write_navigate_csvs)
 
 pytestmark = pytest.mark.skipif(onavdata_missing_reason() is not None,
                                 reason=str(onavdata_missing_reason()))
@@ -91,7 +91,7 @@ def test_navigate_csv_round_trip(drive, tmp_path: Path) -> None:
 # seeded starts (test_real_drive_over_seeded_starts_beside_pyins). This single start holds the
 # measured figures with a margin: the sum over the three outages at most SUM_SLACK above pyins'
 # and no outage more than RELATIVE_SLACK worse. Measured: sums 0.906 (position) and 1.011
-# (position + velocity) of pyins', the worst outage 1.061 of pyins'.
+# (position + velocity) of pyins', the worst outage 1.061 of pyins' (position, outage 3).
 SUM_SLACK = 0.02
 RELATIVE_SLACK = 0.10
 
@@ -180,10 +180,63 @@ def test_real_drive_with_pyins_reset_reproduces_pyins(drive) -> None:
         peer = cache["runs"][seed]
         theirs = np.array(peer["max_horizontal_error_m"])
         np.testing.assert_array_less(np.abs(errors - theirs),
-                                     MODIFIED_SLACK * theirs + MODIFIED_ABS,
+                                     VELOCITY_MODIFIED_SLACK * theirs + MODIFIED_ABS,
                                      err_msg=f"seed {seed}")
         for name, sd in (("rph_error_deg", "rph_sd_deg"), ("gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
                          ("accel_bias_m_s2", "accel_bias_sd_m_s2")):
             np.testing.assert_array_less(np.abs(np.subtract(ours[name], peer["states_at_outages"][
                 name])), MODIFIED_STATE_SD * np.array(peer["states_at_outages"][sd]),
                 err_msg=f"{seed} {name}")
+
+
+# Position + velocity updates, no lever arm (the settings of test_real_drive_beside_pyins)
+# over the seeded starts of tests/nav/reference/nav_pyins_n380_ensemble_velocity.json
+# (studies/nav_n380_ensemble.py --velocity; docs/navigation_real_drive.md, "With velocity
+# updates"). The psi filter is worse than pyins in outage 2 in every seed, by a systematic
+# 1.29 +- 0.06 m (3.7 %; the sum by 1.96 +- 0.87 m): the tilt / accelerometer-bias split of
+# its reset (before outage 2 its states differ from pyins' with the signs of the position
+# case), not realisation noise. It is held to the per-outage figure of the comparison (mean
+# within VELOCITY_RELATIVE of pyins'), to its states (within half of pyins' sigma; measured at
+# most 0.18) and below VELOCITY_GAP_BOUND so that it cannot grow unnoticed. With pyins' reset
+# (modified-phi) no outage and not the sum is worse than pyins at 2 standard errors (measured:
+# -0.07 +- 0.02, -0.13 +- 0.06, -0.03 +- 0.01 m, sum -0.23 +- 0.07 m: better), every seed's
+# outages within VELOCITY_MODIFIED_SLACK of pyins' plus MODIFIED_ABS (measured at most 0.43 m,
+# half of the allowance) and its states within VELOCITY_MODIFIED_STATE_SD of pyins' sigma
+# (measured at most 0.038).
+VELOCITY_RELATIVE = 0.10
+VELOCITY_GAP_BOUND = 2.0  # m
+VELOCITY_MODIFIED_SLACK = 0.02
+VELOCITY_MODIFIED_STATE_SD = 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("error_model", ["psi", "modified-phi"])
+def test_real_drive_with_velocity_over_seeded_starts_beside_pyins(drive, error_model) -> None:
+    cache = json.loads(ENSEMBLE_VELOCITY_JSON.read_text())
+    assert cache["lever_arm_m"] == [0.0, 0.0, 0.0] and cache["mode"] == "position_velocity"
+    assert len(cache["runs"]) >= 8
+    runs = stochmod_runs(drive, cache, error_model=error_model)
+    s = summary({seed: r[0] for seed, r in runs.items()}, cache)
+    assert all((r[0] > 1.0).all() for r in runs.values())  # dead reckoning: metres, not a copy
+    sums = np.array([runs[k][0].sum() - sum(cache["runs"][k]["max_horizontal_error_m"])
+                     for k in runs])
+    sum_lower = sums.mean() - 2 * sums.std(ddof=1) / np.sqrt(sums.size)
+    np.testing.assert_array_less(s["stochmod_mean"], (1 + VELOCITY_RELATIVE) * s["pyins_mean"])
+    for seed, (_, ours) in runs.items():
+        theirs = cache["runs"][seed]["states_at_outages"]
+        for name, sd in (("rph_error_deg", "rph_sd_deg"), ("gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
+                         ("accel_bias_m_s2", "accel_bias_sd_m_s2")):
+            limit = 0.5 if error_model == "psi" else VELOCITY_MODIFIED_STATE_SD
+            np.testing.assert_array_less(np.abs(np.subtract(ours[name], theirs[name])),
+                                         limit * np.array(theirs[sd]), err_msg=f"{seed} {name}")
+    if error_model == "psi":
+        assert verdict(s)[1] == "worse"  # the known, systematic gap (see above)
+        np.testing.assert_array_less(s["difference_mean"], VELOCITY_GAP_BOUND)
+        return
+    assert "worse" not in verdict(s), (verdict(s), s["difference_mean"], s["difference_se"])
+    assert sum_lower <= 0  # the sum: at or below pyins' (not worse at 2 standard errors)
+    for seed, (errors, _) in runs.items():
+        theirs = np.array(cache["runs"][seed]["max_horizontal_error_m"])
+        np.testing.assert_array_less(np.abs(errors - theirs),
+                                     VELOCITY_MODIFIED_SLACK * theirs + MODIFIED_ABS,
+                                     err_msg=f"seed {seed}")
