@@ -28,10 +28,13 @@ percentile) and ``intervals="auto"`` intervals with binomial standard errors, pe
 J-test size with the chi-square, bootstrap and "auto" p-values. ``--load`` recomputes the
 tables from saved fits and draws with the installed stochmod (a changed diagnostic or
 interval rule, no refits); a run cut short leaves the records it finished. Cases run in the
-order of ``--only``::
+order of ``--only``; ``--first`` starts at another record, and ``--load`` repeated merges
+runs that extend one another::
 
     python studies/mc_gmwm.py --bootstrap 200 --reps 40 --save /tmp/boot.pkl --out /tmp/mc_boot.md
     python studies/mc_gmwm.py --load /tmp/boot.pkl          # the tables again, no fits
+    python studies/mc_gmwm.py --bootstrap 200 --first 40 --reps 40 --save /tmp/boot2.pkl
+    python studies/mc_gmwm.py --load /tmp/boot.pkl --load /tmp/boot2.pkl   # 80 records
 
 Run time with the default settings: about 16 min wall clock with 2 workers on the 2-core
 machine; the AR(2) fits take half of it (their Jacobian is numerical: ~5 s per fit). Reruns give identical tables (only the times change). The
@@ -341,8 +344,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--bootstrap", type=int, metavar="B",
                         help="bootstrap study with B replicates per record (default fit only)")
     parser.add_argument("--save", help="bootstrap study: also pickle the per-record results here")
-    parser.add_argument("--load", help="bootstrap study: summarise the results pickled by --save "
-                        "(no fits)")
+    parser.add_argument("--first", type=int, default=0,
+                        help="bootstrap study: index of the first record (default 0), so that "
+                        "runs side by side extend one another")
+    parser.add_argument("--load", action="append",
+                        help="bootstrap study: summarise the results pickled by --save (no "
+                        "fits; repeatable: the records of the files together, each once)")
     args = parser.parse_args(argv)
     by_name = {c.name: c for c in CASES}
     unknown = sorted(set(args.only or ()) - set(by_name))
@@ -352,19 +359,28 @@ def main(argv: list[str] | None = None) -> None:
               for c in ([by_name[n] for n in args.only] if args.only else CASES)]  # --only's order
     t_start = time.perf_counter()
     if args.load:
-        with open(args.load, "rb") as fh:
-            saved = pickle.load(fh)
-        sections = [summarise_bootstrap(c, saved["results"][c.name], saved["n_boot"])
-                    for c in chosen if saved["results"].get(c.name)]
+        merged: dict[str, dict[int, dict]] = {}
+        n_boot = set()
+        for path in args.load:
+            with open(path, "rb") as fh:
+                saved = pickle.load(fh)
+            n_boot.add(saved["n_boot"])
+            for name, records in saved["results"].items():
+                merged.setdefault(name, {}).update((r["rep"], r) for r in records)
+        if len(n_boot) != 1:
+            parser.error(f"the files have different B: {sorted(n_boot)}")
+        sections = [summarise_bootstrap(c, [merged[c.name][k] for k in sorted(merged[c.name])],
+                                        next(iter(n_boot)))
+                    for c in chosen if merged.get(c.name)]
         print("\n\n".join(sections))
         return
     with ProcessPoolExecutor(args.workers) as pool:
         if args.bootstrap:
             futures = [[pool.submit(one_bootstrap_replication, c, r, args.bootstrap)
-                        for r in range(c.reps)] for c in chosen]
+                        for r in range(args.first, args.first + c.reps)] for c in chosen]
             done: dict[str, list[dict]] = {c.name: [] for c in chosen}
             for c, fs in zip(chosen, futures):  # in order; progress on stderr
-                for r, f in enumerate(fs):
+                for r, f in enumerate(fs, start=args.first):
                     done[c.name].append(f.result())
                     print(f"{c.name} {r} done", file=sys.stderr, flush=True)
                     if args.save:  # after every record: a run cut short keeps what it did
