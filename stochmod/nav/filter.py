@@ -40,7 +40,9 @@ first order in both.
 
 Measurements are applied at their own time stamps (the estimate is interpolated between the two
 IMU epochs around the stamp, and the measurement matrix refers the error to the stamp,
-``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``), gated by a chi-square
+``H (I - (t_k - t_m) F)``, Gonzalez eqs. 20h-20i at ``t_m``; the measurements of one IMU
+interval, such as a fix's position and velocity, are updated in sequence, each predicted from
+the state the ones before it corrected at both ends of the interval), gated by a chi-square
 test on the normalised innovation, and fed back into the mechanisation (Gonzalez Alg. 2 lines
 27-30, eq. 26), after which the error state is zero again.
 
