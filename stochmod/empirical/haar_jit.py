@@ -86,18 +86,21 @@ def _level_in_place(v: np.ndarray, own: int, step: int, write: bool) -> float:  
 
 
 @compiled
-def _sweep_block(src: np.ndarray, v: np.ndarray, n_valid: int, k: int, last: bool,
-                 bufs: np.ndarray, s: int, e: int, end: int,
+def _sweep_block(src: np.ndarray, v: np.ndarray, n_valid: int, k: int, fused_last: bool,
+                 last: bool, bufs: np.ndarray, s: int, e: int, tail: bool,
                  totals: np.ndarray) -> None:  # pragma: no cover
     """Haar levels ``1 .. k`` of the output samples ``[s, e)`` of a sweep (see
-    :func:`haar_pyramid_sums`); the sums of squares are added to ``totals[:k]``."""
-    tail = e == end  # the last block also owns the tails of the shallower levels
-    size = (n_valid if tail else e + 2**k - 1) - s  # samples of the signal read
+    :func:`haar_pyramid_sums`); the sums of squares are added to ``totals[:k]``. The `tail`
+    block also owns the tails of the shallower levels. With `fused_last` (a sweep one level
+    shorter than the one whose pieces fix the digits), level k's sum is taken by the loop of
+    the sweep's inner levels, whose partial sums round as in that longer sweep, and its V is
+    copied to `v` after it."""
+    size = (n_valid if tail else e + 2**k - 1) - s  # samples of V_0 = the signal read
     for i in range(k):
         step = 2**i
         size -= step
         own = size if tail else e - s
-        if i == k - 1:  # own == e - s: the block's last V goes to the work array
+        if i == k - 1 and not fused_last:  # own == e - s: the block's V_k goes to `v`
             if i == 0:
                 totals[i] += _last_level(src[s:], v[s:], own, step, not last)
             else:
@@ -106,43 +109,55 @@ def _sweep_block(src: np.ndarray, v: np.ndarray, n_valid: int, k: int, last: boo
             totals[i] += _level(src[s:], bufs[0], own, size, step)
         else:
             totals[i] += _level(bufs[(i - 1) % 2], bufs[i % 2], own, size, step)
+    if fused_last:
+        v[s:e] = bufs[(k - 1) % 2, : e - s]
 
 
 @compiled
-def haar_pyramid_sums(src: np.ndarray, v: np.ndarray, levels: int, k: int, bufs: np.ndarray,
-                      chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
+def haar_pyramid_sums(src: np.ndarray, v: np.ndarray, levels: int, k: int, parted: int,
+                      bufs: np.ndarray, chunk: int, totals: np.ndarray) -> None:  # pragma: no cover
     """Sums of the unscaled squared Haar coefficients ``(2^j W_j)^2`` of `src` (the signal) at
     levels ``j = 1 .. levels``, into ``totals[:levels]``.
 
-    Levels ``1 .. k`` run as one sweep: each block of `chunk` output samples is read once with
-    its halo of ``2^k - 1`` samples, its k levels alternate between the two rows of `bufs`
-    (each at least ``chunk + 2^k - 1`` samples, or the signal's length), and its unscaled sums
-    ``V_k`` go to `v` (length of `src`). Each deeper level j updates `v` in place, block of
-    `chunk` samples after block, from ``V_{j-1}`` to ``V_j``; a block runs as soon as the level
-    above has written the samples it reads (``2^(j-1)`` past its end), so that the levels
-    follow each other through memory a few blocks apart and `v` is read from cache. Every sum
-    of a block is added to its level's total in the order of the blocks, and every W and V
-    value is the same floating-point operation as in a level-by-level pyramid.
+    Each level's sum is the sum, in order, of the sums of its pieces: blocks of `chunk`
+    coefficients from the start, the last piece running to the level's end ``M_j``. For the
+    levels ``1 .. parted`` (those of the sweep that fixes the digits, ``k <= parted <= k + 1``)
+    the last piece starts at ``T``, the last multiple of `chunk` below ``M_parted``; for the
+    deeper ones at the last multiple of `chunk` below their own ``M_j``. Each piece's sum is
+    taken by the loop a sweep of `parted` levels takes it with (the loop that also forms V
+    below level `parted`, a plain sum from it on), so the digits do not depend on `k`.
+
+    Levels ``1 .. k`` run as one sweep: each block of output samples (`chunk` of them, the
+    last block from ``T`` on) is read once with its halo of ``2^k - 1`` samples, its k levels
+    alternate between the two rows of `bufs` (each at least ``chunk + 2^parted - 1`` samples,
+    or the signal's length), and its unscaled sums ``V_k`` go to `v` (length of `src`). Each
+    deeper level j updates `v` in place, piece after piece, from ``V_{j-1}`` to ``V_j``; a
+    piece runs as soon as the level above has written the samples it reads (``2^(j-1)`` past
+    its end), so that the levels follow each other through memory a few blocks apart and `v`
+    is read from cache. Every W and V value is the same floating-point operation as in a
+    level-by-level pyramid.
     """
     n = src.size
     for i in range(levels):
         totals[i] = 0.0
-    end = n - (2**k - 1)  # M_k, the samples of V_k
+    tail = (n - 2**parted) // chunk * chunk  # T: M_parted - 1 = n - 2^parted, rounded down
     deep = levels - k
     size = np.empty(deep + 1, dtype=np.int64)  # size[i]: samples of V_{k+i} (M_{k+i})
+    last = np.empty(deep + 1, dtype=np.int64)  # last[i]: start of the last piece of level k+i
     done = np.zeros(deep + 1, dtype=np.int64)  # done[i]: samples of V_{k+i} written so far
-    size[0] = end
+    size[0] = n - (2**k - 1)
     for i in range(1, deep + 1):
         size[i] = size[i - 1] - 2 ** (k + i - 1)
-    for s in range(0, end, chunk):
-        e = min(s + chunk, end)
-        _sweep_block(src, v, n, k, deep == 0, bufs, s, e, end, totals)
+        last[i] = tail if k + i <= parted else (size[i] - 1) // chunk * chunk
+    for s in range(0, tail + 1, chunk):
+        e = size[0] if s == tail else s + chunk
+        _sweep_block(src, v, n, k, k < parted, deep == 0, bufs, s, e, s == tail, totals)
         done[0] = e
         for i in range(1, deep + 1):  # level k + i, step 2^(k+i-1)
             step = 2 ** (k + i - 1)
             while done[i] < size[i]:
                 start = done[i]
-                stop = min(start + chunk, size[i])
+                stop = size[i] if start == last[i] else start + chunk
                 if stop + step > done[i - 1]:
                     break
                 totals[k + i - 1] += _level_in_place(v[start:], stop - start, step, i < deep)

@@ -133,7 +133,10 @@ def _haar_pyramid(x: np.ndarray, levels: int) -> Iterator[tuple[int, float, int]
     # of the same data stored contiguously
     src = np.ascontiguousarray(x)
     totals = np.empty(levels)
-    haar_jit.haar_pyramid_sums(src, v, levels, _haar_block(levels, _CHUNK), bufs, _CHUNK, totals)
+    # the digits follow the pieces of a sweep of `parted` levels; the deepest of them runs
+    # behind the sweep as the levels below it do, which costs less than its halo in the sweep
+    parted = _haar_block(levels, _CHUNK)
+    haar_jit.haar_pyramid_sums(src, v, levels, max(parted - 1, 1), parted, bufs, _CHUNK, totals)
     n_valid = x.size
     for j in range(1, levels + 1):
         n_valid -= 2 ** (j - 1)
