@@ -35,7 +35,7 @@ def time_oadev(x: np.ndarray, repeat: int) -> float:
     return best_of(lambda: allantools.oadev(x, rate=FREQ, data_type="freq", taus="octave"), repeat)
 
 
-def main(n: int = 2_000_000, repeat: int = 3) -> None:
+def main(n: int = 2_000_000, repeat: int = 5) -> None:
     x = simulated(n)
     fit = gmwm(x, "2*GM+WN", FREQ)
     t_fit = best_of(lambda: gmwm(x, "2*GM+WN", FREQ), repeat)
