@@ -15,6 +15,8 @@ from stochmod.core.errors import InputError
 from stochmod.fit.bootstrap import (
     Bootstrap,
     BootstrapDraws,
+    _own_form,
+    _task,
     bootstrap,
     bootstrap_draws,
     identification,
@@ -162,6 +164,23 @@ def test_an_estimate_the_refits_do_not_move_gets_an_unbounded_interval():
     se, low, high = attrs.evolve(boot, draws=moved).interval(0)
     assert 0 < se < np.inf
     assert 0 < low < est[0] < high < np.inf
+
+
+def test_a_replicate_builds_its_jtest_form_as_the_fit_does(gm_wn_fit):
+    # at the fit's own estimate, WV and Omega the replicate's form is the fit's, to round-off;
+    # at another estimate it differs (V of that model, projection of that estimate)
+    fit = gm_wn_fit
+    task = _task(fit)
+    same = _own_form(task, fit.model, fit.empirical, fit.omega)
+    ref = fit.jtest_form
+    np.testing.assert_array_equal(same.keep, ref.keep)
+    np.testing.assert_allclose(same.variances, ref.variances, rtol=1e-9)
+    np.testing.assert_allclose(same.scale, ref.scale, rtol=1e-9)
+    r = fit.empirical.wv[: fit.levels] - fit.fitted_wv
+    np.testing.assert_allclose(same.statistic(r), fit.asymptotic_jtest.statistic, rtol=1e-9)
+    other = fit.model.with_vector(fit.model.vector() * np.array([1.5, 1.0, 1.0]))
+    moved = _own_form(task, other, fit.empirical, fit.omega)
+    assert np.max(np.abs(moved.scale / ref.scale - 1)) > 0.1  # V of the other model
 
 
 def test_jtest_bootstrap_pvalue_is_uniform_under_the_true_model_and_small_under_a_wrong_one():
