@@ -519,10 +519,10 @@ class Bootstrap:
       with the data-dependent diagonal weighting) is biased, and the replicates reproduce
       the bias: reflecting the draws about the estimate removes it, where the percentile
       interval doubles it and Efron's bias-corrected (BC) interval only shifts the quantile
-      levels by the median bias. In the Monte Carlo study (docs/gmwm_monte_carlo.md, 40
-      records per model at 2^18, B = 100) the basic interval covers the 50 s GM's beta at
-      0.93 (BC 0.80, percentile 0.75, asymptotic 0.78) and the RW at 0.93 (BC 0.82,
-      percentile 0.62);
+      levels by the median bias. In the Monte Carlo study (docs/gmwm_monte_carlo.md, 100
+      records per model at 2^18, B = 200) the basic interval covers the 50 s GM's beta at
+      0.96 (BC 0.89, percentile 0.76, asymptotic 0.83), the RW at 0.95 (BC 0.88,
+      percentile 0.75) and a random ramp at 0.97 (BC 0.74, percentile 0.66);
     - on the log scale it stays positive, and it is equivariant under the power maps to the
       physical values (Tc = 1/beta, sigma = sqrt(sigma2), N = sqrt(sigma2 / freq) ...), so
       a physical value's interval is the map of the canonical one's;
