@@ -147,9 +147,9 @@ def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
     """Column `k`'s figure, written to ``OUT/<column>.png``: for a sensor column the report's
     (:func:`stochmod.output.html_report.axis_figure`, returned with its PNG for the report),
     for another column the fit's validation figure (:func:`stochmod.output.plots.plot_fit`,
-    None returned); with the band of its `simulated` WVs when there are some (kept for
-    :func:`stochmod.validate`, which then draws the same series)."""
-    from stochmod.fit.validation import keep_simulated, validate
+    None returned); with the band of its `simulated` WVs when there are some
+    (:func:`stochmod.validate` of those series)."""
+    from stochmod.fit.validation import validate
     from stochmod.output.html_report import axis_figure_png
     from stochmod.output.plots import save_fit_figure
 
@@ -161,8 +161,8 @@ def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
         return None
     bands = None
     if simulated is not None:
-        keep_simulated(fit.model, fit.empirical.n, fit.empirical.wavelet, seed, simulated)
-        bands = validate(fit, run_.record.data[:, k], R=n_sim, rng=seed, psd=False)
+        bands = validate(fit, run_.record.data[:, k], R=n_sim, rng=seed, psd=False,
+                         simulated=simulated)
     axis = extras.report_axis(run_, k, bands=bands)
     png = axis_figure_png(axis)
     path.write_bytes(png)

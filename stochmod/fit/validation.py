@@ -30,7 +30,7 @@ from stochmod.core.tables import format_table
 from stochmod.empirical.psd import psd as welch_psd
 from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
 
-__all__ = ["ValidationBands", "keep_simulated", "validate", "OctavePSD", "octave_psd"]
+__all__ = ["ValidationBands", "validate", "OctavePSD", "octave_psd"]
 
 #: Central probability of the percentile band of the simulations.
 BAND_LEVEL = 0.95
@@ -295,32 +295,6 @@ def _model_psd(model: Model, f: np.ndarray) -> np.ndarray | None:
     return out if np.all(np.isfinite(out)) else None
 
 
-#: WVs of simulations kept for :func:`validate` (:func:`keep_simulated`), the most recent last.
-_KEPT: dict[tuple, np.ndarray] = {}
-_KEPT_MAX = 64
-
-
-def _simulated_key(model: Model, n: int, levels: int, wavelet: str, R: int, seed: int) -> tuple:
-    return (model.name, float(model.freq), np.asarray(model.vector(), float).tobytes(), int(n),
-            int(levels), wavelet, int(R), int(seed))
-
-
-def keep_simulated(model: Model, n: int, wavelet: str, seed: int, wv: ArrayLike) -> None:
-    """Keep `wv`, the (R, J) WVs of the R series of `n` samples simulated from `model` with the
-    integer `seed` (series i from the i-th child generator of `seed`, as :func:`validate` draws
-    them), so that a :func:`validate` of the same model, length, levels, R and seed uses them
-    instead of simulating again (the figure and the report of one calibration show the same
-    simulations). The last :data:`_KEPT_MAX` sets are kept."""
-    wv = np.array(wv, dtype=np.float64)
-    if wv.ndim != 2:
-        raise InputError(f"wv must hold one row of wavelet variances per series, got shape {wv.shape}")
-    key = _simulated_key(model, n, wv.shape[1], wavelet, wv.shape[0], seed)
-    _KEPT.pop(key, None)
-    _KEPT[key] = wv
-    while len(_KEPT) > _KEPT_MAX:
-        _KEPT.pop(next(iter(_KEPT)))
-
-
 def _band(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     tail = 50.0 * (1.0 - BAND_LEVEL)
     return np.percentile(values, tail, axis=0), np.percentile(values, 100.0 - tail, axis=0)
@@ -358,9 +332,8 @@ def validate(
         without the PSD of every simulated series.
     simulated : array_like (R, J), optional
         The WVs of the `R` simulations when already computed, e.g. for the figure of the same
-        fit (:func:`stochmod.output.plots.simulated_wv` with the same `R` and seed); with an
-        integer `rng`, those kept by :func:`keep_simulated` are used. Either way no series is
-        simulated again unless the PSDs are compared.
+        fit (:func:`stochmod.output.plots.simulated_wv` with the same `R` and seed); no series
+        is then simulated again unless the PSDs are compared.
 
     Returns
     -------
@@ -405,8 +378,6 @@ def validate(
         raise InputError(f"levels = {J} but the wavelet variance has {emp.wv.size} levels")
     n = emp.n
     spec = None if signal is None or not psd else welch_psd(signal, freq)
-    if simulated is None and spec is None and isinstance(rng, (int, np.integer)):
-        simulated = _KEPT.get(_simulated_key(model, n, J, wavelet, R, int(rng)))
     if simulated is not None:
         simulated = np.asarray(simulated, dtype=np.float64)
         if simulated.shape != (R, J):
