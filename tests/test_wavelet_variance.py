@@ -378,6 +378,12 @@ def test_levels(n, wavelet, top, default):
         ([1.0], {}, "at least 2"),
         ([1.0, np.nan, 2.0, 3.0], {}, "NaN"),
         ([1.0, np.inf, 2.0, 3.0], {}, "inf"),
+        # the first and the last sample enter only one level-1 coefficient each
+        ([np.nan] + [1.0, 2.0] * 50, {}, "NaN at flat index 0"),
+        ([1.0, 2.0] * 50 + [-np.inf], {}, "inf at flat index 100"),
+        ([1.0, 2.0] * 50 + [np.inf], {"wavelet": "db4"}, "inf at flat index 100"),
+        ([np.nan] + [1.0, 2.0] * 50, {"ci": "normal"}, "NaN at flat index 0"),
+        ([1e300, -1e300] * 50, {}, "overflows float64"),
         (np.ones((10, 3)), {}, "one-dimensional"),
         (["a", "b", "c"], {}, "numeric"),
         (np.ones(100), {}, "constant"),

@@ -64,7 +64,8 @@ def check_finite(arr: np.ndarray, name: str) -> None:
     )
 
 
-def as_signal(x: ArrayLike, *, name: str = "x", min_length: int = 2) -> np.ndarray:
+def as_signal(x: ArrayLike, *, name: str = "x", min_length: int = 2,
+              finite: bool = True) -> np.ndarray:
     """Return `x` as a finite, 1-D float64 array, or raise :class:`InputError`.
 
     Parameters
@@ -75,6 +76,10 @@ def as_signal(x: ArrayLike, *, name: str = "x", min_length: int = 2) -> np.ndarr
         The argument's name, used in error messages.
     min_length : int
         The smallest acceptable number of samples.
+    finite : bool
+        Check that every value is finite (:func:`check_finite`). False leaves the check to a
+        caller whose own first pass over `x` proves it (a sum over every sample is finite only
+        if every sample is), and which then calls :func:`check_finite` when that sum is not.
     """
     arr = as_float_array(x, name)
     if arr.ndim == 2 and 1 in arr.shape:
@@ -85,7 +90,8 @@ def as_signal(x: ArrayLike, *, name: str = "x", min_length: int = 2) -> np.ndarr
         raise InputError(f"{name} is empty")
     if arr.size < min_length:
         raise InputError(f"{name} has {arr.size} sample(s); at least {min_length} are needed")
-    check_finite(arr, name)
+    if finite:
+        check_finite(arr, name)
     return arr
 
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from scipy.special import chdtri, ndtri
 
 from stochmod.core.fields import array_field
-from stochmod.core.checks import as_signal, check_alpha, check_freq
+from stochmod.core.checks import as_signal, check_alpha, check_finite, check_freq
 from stochmod.core.errors import InputError
 from stochmod.core.tables import format_number, format_table
 from stochmod.core.filters import check_level, default_levels, filter_width, modwt_filters
@@ -185,15 +185,18 @@ def classical_wvar(
     levels: int | None = None,
     ci: str = "chi2",
     alpha: float = 0.05,
+    *,
+    name: str = "x",
 ) -> WaveletVariance:
     """Classical (mean of squares) MODWT wavelet variance at levels 1..J with intervals; the
     estimator behind :func:`stochmod.empirical.wavelet_variance.wvar` (``robust=False``), whose
-    docstring gives the parameters, the interval methods, the result and the errors.
+    docstring gives the parameters, the interval methods, the result and the errors; `name` is
+    the signal's name in error messages.
 
     Extra memory: one copy of `x` for "chi2" (the pyramid runs in place, in chunks); for
     "normal" also the coefficients and their zero-padded FFT (about 5 N more).
     """
-    x = as_signal(x, name="x", min_length=2)
+    x = as_signal(x, name=name, min_length=2, finite=False)  # level 1's sum proves it below
     freq = check_freq(freq)
     modwt_filters(wavelet)
     n = x.size
@@ -220,6 +223,10 @@ def classical_wvar(
             buf[m:previous] = 0.0  # the previous level's coefficients: now zero padding
             previous = m
             s_hat[j - 1] = _sum_squared_acov(buf, m)
+    if not np.isfinite(wv).all():  # every sample enters level 1: a NaN or inf, or an overflow
+        check_finite(x, name)
+        raise InputError(f"the wavelet variance of {name} overflows float64 (|{name}| up to "
+                         f"{np.abs(x).max():.3g}): rescale the signal, e.g. to another unit")
     # a constant signal has W_1 = x_t - x_{t-1} = 0 exactly, so only then is the min/max pass
     # needed (a level-1 WV can also underflow to 0 on a non-constant signal of tiny values)
     if wv[0] == 0.0 and x.max() == x.min():

@@ -33,6 +33,7 @@ from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
 from stochmod.core.model import Model
 from stochmod.core.process import Process
 from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
+from stochmod.empirical.wv_classical import classical_wvar
 
 __all__ = ["gmwm", "GMWMResult", "JTest", "ParameterEstimate"]
 
@@ -172,9 +173,12 @@ def gmwm(
         if freq is None:
             raise InputError("freq (Hz) is required when data is a signal")
         freq = check_freq(freq)
-        signal = as_signal(data, name="data", min_length=8)
-        emp = wvar(signal, freq, wavelet=wavelet, levels=levels,
-                   **({"robust": True, "efficiency": efficiency} if robust else {}))
+        signal = as_signal(data, name="data", min_length=8, finite=False)  # checked by the WV
+        if robust:
+            emp = wvar(signal, freq, wavelet=wavelet, levels=levels, robust=True,
+                       efficiency=efficiency)
+        else:
+            emp = classical_wvar(signal, freq, wavelet=wavelet, levels=levels, name="data")
     J = emp.wv.size if levels is None else levels
     nu_hat = np.asarray(emp.wv[:J], float)
     if np.any(nu_hat <= 0):
