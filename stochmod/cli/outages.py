@@ -60,8 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "chi-square band and the RMS ratio of the horizontal error to the filter's own "
             "horizontal 1-sigma. A last table gives, per outage and calibration, the 1-sigma "
             "horizontal drift the calibration predicts at the outage's end (`stochmod drift` "
-            "along the same drive) with its 5-95 % band from the calibration's parameter "
-            "uncertainty, beside the actual errors."
+            "along the same drive, no fixes in the earlier outages) with its 5-95 % band "
+            "from the calibration's parameter uncertainty, beside the actual errors."
         ),
     )
     p.add_argument("--calibration", required=True, action="append", metavar="FILE",
@@ -144,9 +144,9 @@ def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profil
     The prediction runs the filter of the calibration along the study's drive (`profile`,
     its start, heading and initial speed) with the study's GNSS (`cep` m, 3 m vertical,
     0.1 m/s), initial sigmas, covariance step `dt_filter` (s) and turn-on bias sigmas (rad/s,
-    m/s^2), and fixes up to the outage's start: the earlier outages' gaps are not left out of
-    it. Returns a title and the table's rows ``[outage, filter, mean, median, sigma, 5 %,
-    95 %]``."""
+    m/s^2), and the fixes the study's filters take: none in the earlier outages
+    (``earlier_outages``), the last at the outage's start. Returns a title and the table's
+    rows ``[outage, filter, mean, median, sigma, 5 %, 95 %]``."""
     from stochmod.nav.drift import predicted_drift
 
     options = {"gyro_bias_sd": gyro_bias_sd, "accel_bias_sd": accel_bias_sd}
@@ -157,7 +157,7 @@ def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profil
                                    speed=STUDY_SPEED, heading=STUDY_HEADING, start=STUDY_START,
                                    cep=cep, dt_filter=dt_filter, n_draws=draws,
                                    rng=[seed, k], filter_options=options, workers=workers,
-                                   settle_check=False)
+                                   settle_check=False, earlier_outages=study.outages[:k])
             lo, hi = pred.band() if draws else (math.nan, math.nan)
             mean, med, _ = study.statistics(name)[k]
             rows.append([f"{start:g}+{dur:g} s", name, mean, med, pred.end_sigma, lo, hi])

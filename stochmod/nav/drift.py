@@ -12,8 +12,10 @@ calibration alone:
    exact IMU (:func:`~stochmod.nav.emulate.ideal_imu`) and error-free GNSS fixes that state the
    receiver's sigmas (horizontal from a CEP by Gonzalez et al. 2015, eq. 7). The
    :class:`~stochmod.nav.filter.LooselyCoupledFilter` with the calibration's models runs over
-   it from a stated initial covariance at the truth, takes the fixes for ``settle`` seconds and
-   none for the ``outage`` seconds after the last one. Its covariance is the only output used:
+   it from a stated initial covariance at the truth, takes the fixes for ``settle`` seconds
+   (none in the stated earlier outages, ``earlier_outages``: the schedule of fixes an outage
+   study's filter sees before its later outages) and none for the ``outage`` seconds after the
+   last one. Its covariance is the only output used:
    ``P <- Phi P Phi' + Q`` between fixes and the update at each (Gonzalez Alg. 1, lines 4-8, in
    Joseph form), with the sensor-error states that :func:`stochmod.augment_axes` builds from the models
    (Quinchia et al. 2013, Section 7) -- the filter's own code, not a copy. With exact fixes
@@ -21,11 +23,12 @@ calibration alone:
    along it. The predicted 1-sigma horizontal drift at time ``t`` of the outage is
    ``sqrt(P_NN(t) + P_EE(t))`` (m), the root of the expected squared horizontal error.
 2. **Start of the outage.** The covariance at the outage's start is the filter's after
-   ``settle`` s of fixes from the stated initial covariance (default: the outage study's, 1 m,
-   0.1 m/s, 0.5/0.5/2 deg), i.e. the covariance a filter of these models actually has when
-   GNSS is lost. It is not an algebraic steady state: with static or straight motion, heading,
-   the vertical gyro's bias and the split between tilt and accelerometer bias are not
-   observable and their variances keep changing with the settle time. What the drift needs
+   ``settle`` s of fixes, less those of the earlier outages, from the stated initial
+   covariance (default: the outage study's, 1 m, 0.1 m/s, 0.5/0.5/2 deg), i.e. the covariance
+   a filter of these models actually has when GNSS is lost. It is not an algebraic steady
+   state: with static or straight motion, heading, the vertical gyro's bias and the split
+   between tilt and accelerometer bias are not observable and their variances keep changing
+   with the settle time. What the drift needs
    converges fast; :attr:`DriftPrediction.settle_change` reports the change of the end sigma
    when the settle time is doubled (static and straight motion).
 3. **Band** (:func:`draw_models`). Each axis's parameters are drawn from the calibration's
@@ -286,6 +289,9 @@ class DriftConditions:
         beyond it (None: models taken as they are).
     filter_options : dict
         Further keywords of :class:`~stochmod.nav.filter.LooselyCoupledFilter`.
+    earlier_outages : tuple of (start, duration)
+        Gaps in the fixes before the last one, s from the start of the trajectory: the fixes
+        at ``start <= t < start + duration`` are withheld (the filter's ``outages``).
     """
 
     motion: str
@@ -303,6 +309,8 @@ class DriftConditions:
     dt_filter: float
     record: float | None
     filter_options: dict = attrs.field(factory=dict, converter=dict)
+    earlier_outages: tuple = attrs.field(
+        default=(), converter=lambda v: tuple((float(a), float(b)) for a, b in v))
 
     @property
     def end(self) -> float:
@@ -352,8 +360,10 @@ class DriftConditions:
 
     @property
     def outages(self) -> list[tuple[float, float]]:
-        """The filter's outage window: no fix after the one at :attr:`settle` (s)."""
-        return [(self.settle + 0.5 / self.gnss_rate, self.outage + 1.0 / self.gnss_rate)]
+        """The filter's outage windows (start, duration), s: the earlier outages and no fix
+        after the one at :attr:`settle`."""
+        return [*self.earlier_outages,
+                (self.settle + 0.5 / self.gnss_rate, self.outage + 1.0 / self.gnss_rate)]
 
     def make_filter(self, models: Mapping[str, Model]) -> LooselyCoupledFilter:
         """The filter of `models` (``gyro_x ... accel_z``) with these settings."""
@@ -371,9 +381,10 @@ class DriftConditions:
         gnss = (f"{self.gnss_rate:g} Hz fixes of 1-sigma {self.sigma_h:.3g} m horizontal, "
                 f"{self.sigma_v:.3g} m vertical"
                 + ("" if self.sigma_vel is None else f", {self.sigma_vel:.3g} m/s velocity"))
+        gaps = "".join(f", none from {s:g} to {s + d:g} s" for s, d in self.earlier_outages)
         return (f"motion: {what}; {gnss} for {self.settle:g} s from an initial 1-sigma of "
-                f"{pos:g} m, {vel:g} m/s, {tuple(np.broadcast_to(att, (3,)).tolist())} deg, "
-                f"then {self.outage:g} s without; filter step {self.dt_filter:g} s"
+                f"{pos:g} m, {vel:g} m/s, {tuple(np.broadcast_to(att, (3,)).tolist())} deg"
+                f"{gaps}, then {self.outage:g} s without; filter step {self.dt_filter:g} s"
                 + ("" if self.record is None else f"; record {self.record:g} s"))
 
 
@@ -381,7 +392,8 @@ def _conditions(calibration: Calibration, outage: float, motion: str | Sequence[
                 settle: float, speed: float | None, heading: float, start: Sequence[float],
                 cep: float, sigma_v: float, sigma_vel: float | None, gnss_rate: float,
                 init_sd: Sequence, dt_filter: float, record: float | str | None,
-                filter_options: Mapping | None) -> DriftConditions:
+                filter_options: Mapping | None, earlier_outages: Sequence = ()
+                ) -> DriftConditions:
     for name, v in (("outage", outage), ("settle", settle), ("dt_filter", dt_filter),
                     ("gnss_rate", gnss_rate), ("cep", cep), ("sigma_v", sigma_v)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -422,12 +434,24 @@ def _conditions(calibration: Calibration, outage: float, motion: str | Sequence[
     if not all(math.isfinite(x) and x > 0 for x in (pos, vel, *att)):
         raise InputError(f"init_sd must be positive (position, velocity, attitude), got "
                          f"{init_sd!r}")
+    gaps = []
+    for o in earlier_outages:
+        try:
+            s, d = (float(x) for x in o)
+        except (TypeError, ValueError):
+            raise InputError(f"an earlier outage is (start, duration) in s, got {o!r}") from None
+        if not (math.isfinite(s) and math.isfinite(d) and s >= 0 and d > 0
+                and s + d <= settle + 1e-9):
+            raise InputError(f"earlier outage {o!r} must be (start >= 0, duration > 0) s and "
+                             f"end by the last fix at settle = {settle:g} s")
+        gaps.append((s, d))
     lat, lon, hgt = (float(x) for x in start)
     return DriftConditions(name, profile, float(outage), float(settle), (lat, lon, hgt),
                            float(heading), v0, float(gnss_rate), cep_to_sigma(cep),
                            float(sigma_v), None if sigma_vel is None else float(sigma_vel),
                            (float(pos), float(vel), att), float(dt_filter),
-                           None if record is None else float(record), dict(filter_options or {}))
+                           None if record is None else float(record), dict(filter_options or {}),
+                           tuple(gaps))
 
 
 def _cut(imu: ImuData, t_end: float) -> ImuData:
@@ -655,7 +679,8 @@ def predicted_drift(calibration: Calibration | str | Path, outage: float = 60.0,
                     gnss_rate: float = 1.0, init_sd: Sequence = INIT_SD,
                     dt_filter: float = 1.0, record: float | str | None = "calibration",
                     imu_rate: float | None = None, filter_options: Mapping | None = None,
-                    workers: int = 1, settle_check: bool = True) -> DriftPrediction:
+                    workers: int = 1, settle_check: bool = True,
+                    earlier_outages: Sequence[tuple[float, float]] = ()) -> DriftPrediction:
     """Predicted 1-sigma horizontal drift over a GNSS outage, with its band from the
     calibration's parameter uncertainty (module notes).
 
@@ -703,6 +728,11 @@ def predicted_drift(calibration: Calibration | str | Path, outage: float = 60.0,
     settle_check : bool
         Also propagate the nominal models with the settle time doubled (static and straight
         motion) and report the change of the end sigma.
+    earlier_outages : sequence of (start, duration)
+        Gaps in the fixes before the outage, s from the start of the motion: the fixes at
+        ``start <= t < start + duration`` are withheld, as the filter's ``outages`` withhold
+        them (for outage ``k`` of an outage study, its outages ``0 .. k-1``); each ends by
+        `settle`. Default none: fixes all through the `settle` seconds.
 
     Returns
     -------
@@ -710,7 +740,8 @@ def predicted_drift(calibration: Calibration | str | Path, outage: float = 60.0,
     """
     cal = calibration_axes(calibration)
     cond = _conditions(cal, outage, motion, settle, speed, heading, start, cep, sigma_v,
-                       sigma_vel, gnss_rate, init_sd, dt_filter, record, filter_options)
+                       sigma_vel, gnss_rate, init_sd, dt_filter, record, filter_options,
+                       earlier_outages)
     if not (isinstance(n_draws, (int, np.integer)) and n_draws >= 0):
         raise InputError(f"n_draws must be a whole number >= 0, got {n_draws!r}")
     workers = check_positive_int(workers, name="workers")

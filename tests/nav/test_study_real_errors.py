@@ -206,7 +206,8 @@ def test_adis_recording_reads_in_si_with_disjoint_windows() -> None:
 def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsys) -> None:
     """Beside the actual errors, the 1-sigma horizontal drift each calibration predicts at the
     end of each outage: the filter's own covariance along the study's drive
-    (stochmod.nav.drift.predicted_drift with the study's settings and fixes up to the outage).
+    (stochmod.nav.drift.predicted_drift with the study's settings and its schedule of fixes:
+    none in the earlier outages).
     The calibration of the record's true model predicts what its filter then meets: the
     end-of-outage errors over the predicted sigma have an RMS near 1; the white-noise-only
     calibration, which knows no bias, predicts a far smaller drift."""
@@ -229,10 +230,11 @@ def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsy
             rows[(cells[0], cells[2])] = [float(c) for c in cells[3:]]
     assert len(rows) == 4, out
     sigma = {}
-    for start, _ in QUICK_OUTAGES:
+    for k, (start, _) in enumerate(QUICK_OUTAGES):
         pred = predicted_drift(str(folder / "true.json"), outage=30.0,
                                motion=list(QUICK_PROFILE), settle=start, speed=STUDY_SPEED,
-                               start=STUDY_START, dt_filter=1.0, n_draws=0, settle_check=False)
+                               start=STUDY_START, dt_filter=1.0, n_draws=0, settle_check=False,
+                               earlier_outages=QUICK_OUTAGES[:k])
         sigma[start] = pred.end_sigma
         true, white = rows[(f"{start:g}+30", "true")], rows[(f"{start:g}+30", "white")]
         assert true[2] == pytest.approx(pred.end_sigma, rel=1e-3)  # 4 digits printed
