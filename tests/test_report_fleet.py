@@ -13,6 +13,7 @@ import pytest
 
 import stochmod
 from stochmod.cli import main
+from stochmod.output import exports
 from stochmod.workflows.fleet import MIN_UNITS, OUTLIER_Z, robust_z
 
 FS = 50.0
@@ -46,16 +47,20 @@ class _Parsed(HTMLParser):
             self.pre.append(data)
 
 
-def test_report_is_one_self_contained_file(tmp_path, capsys):
+def test_report_is_one_self_contained_file(tmp_path, capsys, monkeypatch):
     pytest.importorskip("matplotlib")
     path = tmp_path / "u.npz"
     x = np.column_stack([stochmod.model_from_spec("WN(sigma2=1e-4)+RW(sigma2=1e-10)", FS)
                          .simulate(2**13, rng=s) for s in (1, 2)])
     np.savez(path, gyro_x=x[:, 0], accel_x=x[:, 1], freq=FS)
     out = tmp_path / "out"
+    bounds = []  # the export bound is solved once per axis: the files and the report share it
+    monkeypatch.setattr(exports, "avar_bound",
+                        lambda *a, _f=exports.avar_bound, **k: bounds.append(k["column"]) or _f(*a, **k))
     assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "WN+RW", "--no-plots", "--n-sim",
                  "4", "--out", str(out), "--report", "--export", "kalibr"]) == 0
     capsys.readouterr()
+    assert bounds == ["gyro_x", "accel_x"]
     parser = _Parsed()
     parser.feed((out / "report.html").read_text())
     assert len(parser.images) == 3  # the Allan deviations of both axes, one figure per axis

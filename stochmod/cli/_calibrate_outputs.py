@@ -1,7 +1,7 @@
 """``stochmod calibrate``'s datasheet, triad, export, report and fleet options.
 
 Kept apart from :mod:`stochmod.cli.calibrate` so that its pipeline reads as one call per
-feature: :func:`write_exports_for`, :func:`write_report_for`.
+feature: :func:`export_noise`, :func:`write_exports_for`, :func:`write_report_for`.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from stochmod.io.calibration import Calibration
 from stochmod.output.exports import (
     DEFAULT_HORIZON_CAP,
     EXPORT_FORMATS,
+    calibration_noise,
     exports_from_calibration,
     write_exports,
 )
@@ -29,8 +30,8 @@ if TYPE_CHECKING:
     from stochmod.output.html_report import ReportAxis
     from stochmod.workflows.calibrate import CalibrationRun
 
-__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "fleet_requested", "report_axis",
-           "write_exports_for", "write_report_for"]
+__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "export_noise", "fleet_requested",
+           "report_axis", "write_exports_for", "write_report_for"]
 
 #: Help of ``--export-horizon`` (``calibrate`` and ``export``).
 EXPORT_HORIZON_HELP = (
@@ -78,17 +79,28 @@ def fleet_requested(args: argparse.Namespace) -> bool:
 
 
 def write_exports_for(args: argparse.Namespace, source: Calibration | list[SelectionResult],
-                      units: dict[str, str], out: Path) -> list[Path]:
+                      units: dict[str, str], out: Path,
+                      noise: Sequence[AxisNoise] | None = None) -> list[Path]:
     """The ``--export`` files: from the calibration's final models
     (:func:`stochmod.output.exports.exports_from_calibration`, the same files as ``stochmod
-    export OUT/calibration.json``), or from selections' best fits (the columns of `units`)."""
+    export OUT/calibration.json``; its exported terms `noise` when computed already,
+    :func:`export_noise`), or from selections' best fits (the columns of `units`)."""
     if not args.export:
         return []
     if isinstance(source, Calibration):
         return exports_from_calibration(source, args.export, out, horizon=args.export_horizon,
-                                        rostopic=args.rostopic)
+                                        rostopic=args.rostopic, noise=noise)
     return write_exports(args.export, {s.column: s.best for s in source if s.column in units},
                          units, out, horizon=args.export_horizon, rostopic=args.rostopic)
+
+
+def export_noise(args: argparse.Namespace, calibration: Calibration) -> list[AxisNoise] | None:
+    """The exported white density and random walk of each gyro and accelerometer axis of
+    `calibration` (its final models, ``--export-horizon``) when ``--export`` asks for files,
+    else None: what the export files hold and the report shows."""
+    if not args.export:
+        return None
+    return calibration_noise(calibration, horizon=args.export_horizon)
 
 
 def report_axis(run_: CalibrationRun, k: int, *, bands: ValidationBands | None = None,
@@ -105,23 +117,24 @@ def report_axis(run_: CalibrationRun, k: int, *, bands: ValidationBands | None =
 
 
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
-                     title: str, out: Path, drawn: Sequence[ReportAxis | None] = ()
-                     ) -> list[Path]:
+                     title: str, out: Path, drawn: Sequence[ReportAxis | None] = (),
+                     noise: Sequence[AxisNoise] | None = None) -> list[Path]:
     """``OUT/report.html`` (with ``--report``) of the calibration `run_`: the summary across
-    axes first, with each axis's exported N and K when `exported` holds files. `drawn`: per
-    column, its figure drawn already (:func:`report_axis` with its PNG) or None; the report
-    draws the others."""
+    axes first, with each axis's exported N and K when `exported` holds files (`noise`, the
+    exported terms, :func:`export_noise`; computed from the final models when not given).
+    `drawn`: per column, its figure drawn already (:func:`report_axis` with its PNG) or None;
+    the report draws the others."""
     if not args.report:
         return []
-    from stochmod.output.exports import noise_terms
     from stochmod.output.html_report import write_report
 
     drawn = list(drawn) or [None] * len(run_.selections)
     axes = [report_axis(run_, k) if a is None else a for k, a in enumerate(drawn)]
     if exported:
-        axes = [attrs.evolve(a, noise=noise_terms(
-                    a.selection.best, a.datasheet.unit, column=a.column,
-                    horizon=args.export_horizon, record_seconds=run_.calibration.record_seconds))
+        if noise is None:
+            noise = calibration_noise(run_.calibration, horizon=args.export_horizon)
+        by_column = {a.column: a for a in noise}
+        axes = [attrs.evolve(a, noise=by_column[a.column]) if a.column in by_column else a
                 for a in axes]
     exports = {p.name: p.read_text() for p in exported}
     path = write_report(out / "report.html", axes, title=title, exports=exports,

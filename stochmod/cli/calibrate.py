@@ -428,7 +428,8 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     path = cal.write(out / "calibration.json")
     report = cal.to_dict()
     sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
-    exported = extras.write_exports_for(args, cal, sensors, out)
+    noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
+    exported = extras.write_exports_for(args, cal, sensors, out, noise)
     rec = run_.record
     drawn = [] if args.no_plots else _figures(run_, out, args.n_sim, args.seed, pool)
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
@@ -436,7 +437,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, run_, exported, title, out, drawn)
+    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise)
     if quiet:
         return report
     if args.json:

@@ -95,6 +95,8 @@ __all__ = [
     "AxisNoise",
     "avar_bound",
     "avar_grid",
+    "axis_noise",
+    "calibration_noise",
     "component_avar",
     "default_horizon",
     "envelope_avar",
@@ -671,11 +673,31 @@ def _parameter_units(model: Model, unit: str) -> dict[str, str]:
     return out
 
 
+def axis_noise(models: Mapping[str, Model | GMWMResult], units: Mapping[str, str], *,
+               horizon: float | None = None, record_seconds: float | None = None,
+               intervals: Mapping[str, Mapping[str, tuple[float, float]]] | None = None
+               ) -> list[AxisNoise]:
+    """The exported white density and random walk of each axis (:func:`avar_bound` of a
+    model, :func:`noise_terms` of a fit), in the order of `models`; the arguments as for
+    :func:`write_exports`."""
+    axes = []
+    for col, item in models.items():
+        if isinstance(item, GMWMResult):
+            axes.append(noise_terms(item, units[col], column=col, horizon=horizon,
+                                    record_seconds=record_seconds))
+        else:
+            axes.append(avar_bound(item, units[col], column=col, horizon=horizon,
+                                   record_seconds=record_seconds,
+                                   intervals=(intervals or {}).get(col)))
+    return axes
+
+
 def write_exports(formats: Sequence[str], models: Mapping[str, Model | GMWMResult],
                   units: Mapping[str, str], out: Path, *, horizon: float | None = None,
                   record_seconds: float | None = None,
                   intervals: Mapping[str, Mapping[str, tuple[float, float]]] | None = None,
-                  rostopic: str = "/imu0") -> list[Path]:
+                  rostopic: str = "/imu0", noise: Sequence[AxisNoise] | None = None
+                  ) -> list[Path]:
     """Write the asked `formats` (keys of :data:`EXPORT_FORMATS`) into `out`; the paths.
 
     Parameters
@@ -696,19 +718,22 @@ def write_exports(formats: Sequence[str], models: Mapping[str, Model | GMWMResul
         Column -> ``{"label.name": (low, high)}`` of the physical parameters.
     rostopic : str
         IMU topic of the Kalibr and OpenVINS files.
+    noise : sequence of AxisNoise, optional
+        The axes' exported terms, one per model in order, when computed already
+        (:func:`axis_noise` of the same arguments); then `horizon`, `record_seconds` and
+        `intervals` are not read.
     """
     unknown = sorted(set(formats) - set(EXPORT_FORMATS))
     if unknown:
         raise InputError(f"unknown export format(s) {unknown}; choose from {sorted(EXPORT_FORMATS)}")
-    axes = []
-    for col, item in models.items():
-        if isinstance(item, GMWMResult):
-            axes.append(noise_terms(item, units[col], column=col, horizon=horizon,
-                                    record_seconds=record_seconds))
-        else:
-            axes.append(avar_bound(item, units[col], column=col, horizon=horizon,
-                                   record_seconds=record_seconds,
-                                   intervals=(intervals or {}).get(col)))
+    if noise is None:
+        axes = axis_noise(models, units, horizon=horizon, record_seconds=record_seconds,
+                          intervals=intervals)
+    else:
+        axes = list(noise)
+        if [a.column for a in axes] != list(models):
+            raise InputError(f"noise holds the axes {[a.column for a in axes]}, the models "
+                             f"{list(models)}")
     written = []
     for fmt in dict.fromkeys(formats):
         path = Path(out) / EXPORT_FORMATS[fmt]
@@ -724,8 +749,8 @@ def write_exports(formats: Sequence[str], models: Mapping[str, Model | GMWMResul
 
 
 def exports_from_calibration(calibration: Calibration, formats: Sequence[str], out: str | Path,
-                             *, horizon: float | None = None, rostopic: str = "/imu0"
-                             ) -> list[Path]:
+                             *, horizon: float | None = None, rostopic: str = "/imu0",
+                             noise: Sequence[AxisNoise] | None = None) -> list[Path]:
     """Write the exports of a calibration's final models (no refit); the paths.
 
     Parameters
@@ -743,7 +768,28 @@ def exports_from_calibration(calibration: Calibration, formats: Sequence[str], o
         H, s (default :func:`default_horizon`).
     rostopic : str
         IMU topic of the Kalibr and OpenVINS files.
+    noise : sequence of AxisNoise, optional
+        :func:`calibration_noise` of the same calibration and horizon, when computed already.
     """
+    models, units, intervals = _calibration_axes(calibration)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    return write_exports(formats, models, units, out, horizon=horizon,
+                         record_seconds=calibration.record_seconds, intervals=intervals,
+                         rostopic=rostopic, noise=noise)
+
+
+def calibration_noise(calibration: Calibration, *, horizon: float | None = None
+                      ) -> list[AxisNoise]:
+    """The exported terms of a calibration's gyro and accelerometer axes, from their final
+    models: what :func:`exports_from_calibration` writes with the same `horizon`."""
+    models, units, intervals = _calibration_axes(calibration)
+    return axis_noise(models, units, horizon=horizon, record_seconds=calibration.record_seconds,
+                      intervals=intervals)
+
+
+def _calibration_axes(calibration: Calibration) -> tuple[dict[str, Model], dict[str, str], dict]:
+    """Final model, SI unit and physical intervals of each gyro and accelerometer axis."""
     sensors = [a for a in calibration.axes if a.kind in SENSORS]
     if not sensors:
         raise InputError(f"{calibration.source or 'the calibration'} has no gyro or "
@@ -751,8 +797,4 @@ def exports_from_calibration(calibration: Calibration, formats: Sequence[str], o
     units = {a.column: a.unit or SENSORS[a.kind] for a in sensors}
     models = {a.column: a.model for a in sensors}
     intervals = {a.column: _intervals_of(a.details.get("physical"), a.model) for a in sensors}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    return write_exports(formats, models, units, out, horizon=horizon,
-                         record_seconds=calibration.record_seconds, intervals=intervals,
-                         rostopic=rostopic)
+    return models, units, intervals
