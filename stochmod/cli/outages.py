@@ -144,28 +144,43 @@ def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profil
     The prediction runs the filter of the calibration along the study's drive (`profile`,
     its start, heading and initial speed) with the study's GNSS (`cep` m, 3 m vertical,
     0.1 m/s), initial sigmas, covariance step `dt_filter` (s) and turn-on bias sigmas (rad/s,
-    m/s^2), and the fixes the study's filters take: none in the earlier outages
-    (``earlier_outages``), the last at the outage's start. Returns a title and the table's
-    rows ``[outage, filter, mean, median, sigma, 5 %, 95 %]``."""
+    m/s^2), and the fixes the study's filters take at 1 Hz: none in the earlier outages
+    (``earlier_outages``), none from the outage's start to its end, so the last one before it
+    is the last fix before its start and the prediction coasts from there to its end. Returns
+    a title and the table's rows ``[outage, filter, mean, median, sigma, 5 %, 95 %]``."""
     from stochmod.nav.drift import predicted_drift
 
     options = {"gyro_bias_sd": gyro_bias_sd, "accel_bias_sd": accel_bias_sd}
     rows = []
     for k, (start, dur) in enumerate(study.outages):
+        last, earlier = _last_fix(start, study.outages[:k])
         for name, path in calibrations.items():
-            pred = predicted_drift(path, outage=dur, motion=list(profile), settle=start,
+            pred = predicted_drift(path, outage=start + dur - last, motion=list(profile),
+                                   settle=last,
                                    speed=STUDY_SPEED, heading=STUDY_HEADING, start=STUDY_START,
                                    cep=cep, dt_filter=dt_filter, n_draws=draws,
                                    rng=[seed, k], filter_options=options, workers=workers,
-                                   settle_check=False, earlier_outages=study.outages[:k])
+                                   settle_check=False, earlier_outages=earlier)
             lo, hi = pred.band() if draws else (math.nan, math.nan)
             mean, med, _ = study.statistics(name)[k]
             rows.append([f"{start:g}+{dur:g} s", name, mean, med, pred.end_sigma, lo, hi])
     title = ("Predicted 1-sigma horizontal drift sqrt(P_NN + P_EE) at each outage's end (m) "
-             "from each calibration alone (stochmod drift along this drive), "
+             "from each calibration alone (stochmod drift along this drive with the study's "
+             "fixes), "
              + (f"5-95 % band over {draws} parameter draw(s)" if draws else "no band (0 draws)")
              + ", beside the actual max horizontal error (m)")
     return title, rows
+
+
+def _last_fix(start: float, earlier: Sequence[tuple[float, float]]
+              ) -> tuple[float, list[tuple[float, float]]]:
+    """The study's last 1 Hz fix before an outage starting at `start` (s from the first
+    epoch; the study withholds the fixes at ``s <= t < s + d`` of every outage) and the
+    earlier outages that end by it."""
+    last = math.ceil(start - 1e-9) - 1.0
+    while any(s <= last < s + d for s, d in earlier):
+        last -= 1.0
+    return last, [(s, d) for s, d in earlier if s + d <= last + 1e-9]
 
 
 def _span(text: str) -> tuple[float, float]:

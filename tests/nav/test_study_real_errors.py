@@ -207,11 +207,17 @@ def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsy
     """Beside the actual errors, the 1-sigma horizontal drift each calibration predicts at the
     end of each outage: the filter's own covariance along the study's drive
     (stochmod.nav.drift.predicted_drift with the study's settings and its schedule of fixes:
-    none in the earlier outages).
+    none in the earlier outages, the last 1 s before the outage's start).
     The calibration of the record's true model predicts what its filter then meets: the
     end-of-outage errors over the predicted sigma have an RMS near 1; the white-noise-only
     calibration, which knows no bias, predicts a far smaller drift."""
-    from stochmod.cli.outages import QUICK_OUTAGES, QUICK_PROFILE, STUDY_SPEED, STUDY_START
+    from stochmod.cli.outages import (
+        QUICK_OUTAGES,
+        QUICK_PROFILE,
+        STUDY_SPEED,
+        STUDY_START,
+        _last_fix,
+    )
     from stochmod.nav.drift import predicted_drift
 
     folder, _ = static_file
@@ -231,8 +237,9 @@ def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsy
     assert len(rows) == 4, out
     sigma = {}
     for k, (start, _) in enumerate(QUICK_OUTAGES):
-        pred = predicted_drift(str(folder / "true.json"), outage=30.0,
-                               motion=list(QUICK_PROFILE), settle=start, speed=STUDY_SPEED,
+        # the study's filters take no fix from an outage's start: the last is 1 s before it
+        pred = predicted_drift(str(folder / "true.json"), outage=31.0,
+                               motion=list(QUICK_PROFILE), settle=start - 1, speed=STUDY_SPEED,
                                start=STUDY_START, dt_filter=1.0, n_draws=0, settle_check=False,
                                earlier_outages=QUICK_OUTAGES[:k])
         sigma[start] = pred.end_sigma
@@ -244,5 +251,8 @@ def test_outages_cli_prints_each_calibrations_predicted_drift(static_file, capsy
     # within a factor 3 of the sigma at the end
     for start, s in sigma.items():
         assert s / 3 < rows[(f"{start:g}+30", "true")][0] < 3 * s
+    # an outage right after another: the last fix is the one before both
+    assert _last_fix(90.0, [(60.0, 30.0)]) == (59.0, [])
+    assert _last_fix(130.5, [(60.0, 30.0)]) == (130.0, [(60.0, 30.0)])
     assert main(["outages", "--calibration", str(folder / "true.json"), "--runs", "1",
                  "--drift-draws", "-1"]) == 2
