@@ -89,6 +89,16 @@ class StageClock:
         return timed
 
 
+def _started(clock: StageClock, start):
+    """`start` (:func:`stochmod.cli.calibrate._start_figures`) whose returned call, the wait
+    for the figures the workers draw, counts as the "figures" stage."""
+    @functools.wraps(start)
+    def wrapped(*args, **kwargs):
+        return clock.wrap(start(*args, **kwargs), "figures")
+
+    return wrapped
+
+
 def install(clock: StageClock) -> None:
     """Replace the timed functions by wrappers in every loaded stochmod module that holds them
     (robust to where the code imports them)."""
@@ -102,6 +112,11 @@ def install(clock: StageClock) -> None:
                id(wv_covariance): clock.wrap(wv_covariance, "covariance (eq. 17, own thread)"),
                id(datasheet_reading): clock.wrap(datasheet_reading, "datasheet Allan reading"),
                id(cli_calibrate._figures): clock.wrap(cli_calibrate._figures, "figures"),
+               id(cli_calibrate._start_figures): _started(clock, cli_calibrate._start_figures),
+               id(cli_outputs.write_exports_for): clock.wrap(cli_outputs.write_exports_for,
+                                                             "exports"),
+               id(cli_outputs.report_overview): clock.wrap(cli_outputs.report_overview,
+                                                           "report"),
                id(cli_outputs.write_report_for): clock.wrap(cli_outputs.write_report_for,
                                                             "report")}
     for name, module in list(sys.modules.items()):

@@ -103,6 +103,27 @@ def test_calibrate_jobs_do_not_change_the_outputs(gm_wn_file, tmp_path, capsys, 
     assert (tmp_path / "split" / "0.png").read_bytes() == (tmp_path / "one" / "0.png").read_bytes()
     assert main(base + ["--out", str(tmp_path / "bad"), "--jobs", "0"]) == 2
     assert "--jobs" in capsys.readouterr().err
+    # without simulations the pool's workers draw the figures: the same bytes again
+    plain = [a for a in base if a not in ("--n-sim", "2")]
+    run_json(plain + ["--out", str(tmp_path / "one0"), "--jobs", "1"], capsys)
+    run_json(plain + ["--out", str(tmp_path / "two0"), "--jobs", "2"], capsys)
+    assert (tmp_path / "two0" / "0.png").read_bytes() == (tmp_path / "one0" / "0.png").read_bytes()
+
+
+def test_report_and_figures_drawn_on_workers_equal_those_drawn_here(tmp_path, capsys):
+    """The axes' figures drawn by the pool's workers while this process writes the exports
+    and the Allan overview give the same files as everything drawn here."""
+    pytest.importorskip("matplotlib")
+    path = tmp_path / "imu.npz"
+    x = np.column_stack([stochmod.model_from_spec("WN(sigma2=1e-4)+RW(sigma2=1e-10)", 100.0)
+                         .simulate(2**13, rng=s) for s in (1, 2)])
+    np.savez(path, gyro_x=x[:, 0], accel_x=x[:, 1], freq=100.0)
+    base = ["calibrate", "--assume-si", str(path), "--candidates", "WN", "WN+RW", "--report",
+            "--export", "kalibr", "--json"]
+    run_json(base + ["--out", str(tmp_path / "one"), "--jobs", "1"], capsys)
+    run_json(base + ["--out", str(tmp_path / "two"), "--jobs", "2"], capsys)
+    for name in ("report.html", "gyro_x.png", "accel_x.png", "kalibr_imu.yaml"):
+        assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
 
 
 # ---------------------------------------------------------------- the bundled example

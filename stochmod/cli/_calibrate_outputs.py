@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from stochmod.workflows.calibrate import CalibrationRun
 
 __all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "export_noise", "fleet_requested",
-           "report_axis", "write_exports_for", "write_report_for"]
+           "report_axis", "report_overview", "write_exports_for", "write_report_for"]
 
 #: Help of ``--export-horizon`` (``calibrate`` and ``export``).
 EXPORT_HORIZON_HELP = (
@@ -116,27 +116,49 @@ def report_axis(run_: CalibrationRun, k: int, *, bands: ValidationBands | None =
                       final=run_.finals[k], noise=noise, verdict=run_.verdicts[k])
 
 
+def _report_axes(run_: CalibrationRun, drawn: Sequence[ReportAxis | None] = (),
+                 noise: Sequence[AxisNoise] | None = None) -> list[ReportAxis]:
+    """The report's axes: :func:`report_axis` of each column, or its figure drawn already
+    (`drawn`), with its exported terms when there are some."""
+    drawn = list(drawn) or [None] * len(run_.selections)
+    axes = [report_axis(run_, k) if a is None else a for k, a in enumerate(drawn)]
+    by_column = {a.column: a for a in noise or ()}
+    return [attrs.evolve(a, noise=by_column[a.column]) if a.column in by_column else a
+            for a in axes]
+
+
+def report_overview(args: argparse.Namespace, run_: CalibrationRun,
+                    noise: Sequence[AxisNoise] | None = None) -> bytes | None:
+    """The PNG of the report's Allan overview (with ``--report`` and matplotlib, else None),
+    with the exported terms `noise` (:func:`export_noise`), for :func:`write_report_for`:
+    drawn while the workers draw the columns' figures."""
+    import importlib.util
+
+    if not args.report or not run_.selections or importlib.util.find_spec("matplotlib") is None:
+        return None
+    from stochmod.output.html_report import allan_overview_png
+
+    return allan_overview_png(_report_axes(run_, noise=noise))
+
+
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
                      title: str, out: Path, drawn: Sequence[ReportAxis | None] = (),
-                     noise: Sequence[AxisNoise] | None = None) -> list[Path]:
+                     noise: Sequence[AxisNoise] | None = None,
+                     overview: bytes | None = None) -> list[Path]:
     """``OUT/report.html`` (with ``--report``) of the calibration `run_`: the summary across
     axes first, with each axis's exported N and K when `exported` holds files (`noise`, the
     exported terms, :func:`export_noise`; computed from the final models when not given).
     `drawn`: per column, its figure drawn already (:func:`report_axis` with its PNG) or None;
-    the report draws the others."""
+    the report draws the others, and its Allan overview unless given (:func:`report_overview`
+    of the same `noise`)."""
     if not args.report:
         return []
     from stochmod.output.html_report import write_report
 
-    drawn = list(drawn) or [None] * len(run_.selections)
-    axes = [report_axis(run_, k) if a is None else a for k, a in enumerate(drawn)]
-    if exported:
-        if noise is None:
-            noise = calibration_noise(run_.calibration, horizon=args.export_horizon)
-        by_column = {a.column: a for a in noise}
-        axes = [attrs.evolve(a, noise=by_column[a.column]) if a.column in by_column else a
-                for a in axes]
+    if exported and noise is None:
+        noise = calibration_noise(run_.calibration, horizon=args.export_horizon)
+    axes = _report_axes(run_, drawn, noise if exported else None)
     exports = {p.name: p.read_text() for p in exported}
     path = write_report(out / "report.html", axes, title=title, exports=exports,
-                        triads=run_.triads)
+                        triads=run_.triads, overview=overview)
     return [path]

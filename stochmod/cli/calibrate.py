@@ -8,8 +8,9 @@ from __future__ import annotations
 import argparse
 import concurrent.futures
 import contextlib
+import functools
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -167,6 +168,51 @@ def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
     png = axis_figure_png(axis)
     path.write_bytes(png)
     return attrs.evolve(axis, figure=png)
+
+
+def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
+                   executor: Any = None) -> Callable[[], list[ReportAxis | None]]:
+    """Start drawing each column's figure (:func:`_draw`); the call returned waits for them
+    and gives what :func:`_figures` gives.
+
+    Without simulations and on a pool of worker processes, every figure goes to the workers
+    at once (the selection has left them idle), so that this process writes the exports and
+    draws the report's Allan overview meanwhile; otherwise the figures are drawn when the
+    returned call is made (:func:`_figures`). The figures are the same either way.
+    """
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        return list
+    if n_sim > 0 or executor is None or isinstance(executor, SerialExecutor):
+        return functools.partial(_figures, run_, out, n_sim, seed, executor)
+    from stochmod.output.html_report import axis_figure_png
+    from stochmod.output.plots import save_fit_figure
+
+    tasks: list[tuple[ReportAxis | None, Path, concurrent.futures.Future]] = []
+    for k, sel in enumerate(run_.selections):
+        fit, path = sel.best, out / f"{_filename(sel.column)}.png"
+        if sel.column in run_.datasheets:
+            axis = extras.report_axis(run_, k)
+            tasks.append((axis, path, executor.submit(axis_figure_png, axis)))
+        else:  # the worker writes the file
+            unit = run_.record.unit_map().get(sel.column) or "u"
+            tasks.append((None, path, executor.submit(
+                save_fit_figure, fit, path, n_sim=0, rng=seed,
+                title=f"{sel.column}: {fit.model.name}", unit=unit)))
+
+    def drawn() -> list[ReportAxis | None]:
+        axes: list[ReportAxis | None] = []
+        for axis, path, future in tasks:
+            png = future.result()
+            if axis is None:
+                axes.append(None)
+            else:
+                path.write_bytes(png)
+                axes.append(attrs.evolve(axis, figure=png))
+        return axes
+
+    return drawn
 
 
 def _figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
@@ -428,16 +474,18 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     path = cal.write(out / "calibration.json")
     report = cal.to_dict()
     sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
+    drawing = list if args.no_plots else _start_figures(run_, out, args.n_sim, args.seed, pool)
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
+    overview = extras.report_overview(args, run_, noise)
     rec = run_.record
-    drawn = [] if args.no_plots else _figures(run_, out, args.n_sim, args.seed, pool)
+    drawn = drawing()
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
     samples = f"{cal.n} samples" + (f" in {len(segments)} gap-free segments"
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise)
+    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise, overview)
     if quiet:
         return report
     if args.json:

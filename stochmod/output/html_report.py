@@ -380,7 +380,8 @@ def _axis_html(axis: ReportAxis, figures: bool) -> str:
 
 def render_report(axes: Sequence[ReportAxis], *, title: str,
                   exports: Mapping[str, str] | None = None, triads: Sequence[Any] = (),
-                  extra: Sequence[str] = (), figures: bool = True) -> str:
+                  extra: Sequence[str] = (), figures: bool = True,
+                  overview: bytes | None = None) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     body = [f"<h1>{html.escape(title)}</h1>"]
     if axes:
@@ -394,7 +395,8 @@ def render_report(axes: Sequence[ReportAxis], *, title: str,
         body.append("</details>")
     if axes and figures:
         body.append('<h2 id="allan">Allan deviation in datasheet units</h2>')
-        body.append(_img(allan_overview_png(axes), "Allan deviation of every axis"))
+        body.append(_img(allan_overview_png(axes) if overview is None else overview,
+                         "Allan deviation of every axis"))
         body.append('<p class="note">Dots and shading: the data\'s overlapping Allan deviation '
                     "and its 95% interval; red: the final model (triangle: its minimum, the "
                     "bias instability's point)"
@@ -415,7 +417,8 @@ def render_report(axes: Sequence[ReportAxis], *, title: str,
 
 def write_report(path: str | Path, axes: Sequence[ReportAxis], *, title: str,
                  exports: Mapping[str, str] | None = None, triads: Sequence[Any] = (),
-                 extra: Sequence[str] = (), figures: bool = True) -> Path:
+                 extra: Sequence[str] = (), figures: bool = True,
+                 overview: bytes | None = None) -> Path:
     """Write the self-contained HTML report to `path`.
 
     Parameters
@@ -434,8 +437,10 @@ def write_report(path: str | Path, axes: Sequence[ReportAxis], *, title: str,
         Further preformatted blocks, shown before the per-axis sections.
     figures : bool
         Draw the figures (matplotlib); False gives the tables only.
+    overview : bytes, optional
+        The PNG of :func:`allan_overview_png` of the same `axes`, when drawn already.
     """
     path = Path(path)
     path.write_text(render_report(axes, title=title, exports=exports, triads=triads, extra=extra,
-                                  figures=figures), encoding="utf-8")
+                                  figures=figures, overview=overview), encoding="utf-8")
     return path
