@@ -28,7 +28,7 @@ from stochmod.nav.study import (
 
 __all__ = ["predicted_drifts", "register", "run", "white_part"]
 
-#: --quick: a 3.5 min drive with two 30 s outages (for a first look; the default is 10 min).
+#: --quick: a 3 min drive with two 30 s outages (for a first look; the default is 10 min).
 QUICK_PROFILE = (Segment(20, speed=15), Segment(15, turn=90), Segment(30, speed=20),
                  Segment(20, turn=-120, speed=12), Segment(30), Segment(20, turn=60, speed=18),
                  Segment(30, speed=22), Segment(15, turn=-90))
@@ -115,7 +115,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="do not predict the drift (skips one covariance run per outage, "
                         "calibration and draw)")
     p.add_argument("--quick", action="store_true",
-                   help="a 3.5 min drive with two 30 s outages instead of the 10 min drive")
+                   help="a 3 min drive with two 30 s outages instead of the 10 min drive")
     p.set_defaults(func=run)
 
 
