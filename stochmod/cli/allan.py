@@ -10,6 +10,7 @@ import numpy as np
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
 from stochmod.core.errors import InputError
+from stochmod.core.plotting import log_grid
 from stochmod.empirical.allan import KINDS, AllanVariance, avar
 from stochmod.empirical.allan_reading import AllanReading, allan_reading
 
@@ -124,7 +125,7 @@ def plot_reading(
     units = {r.unit for r in readings.values()}
     unit = units.pop() if len(units) == 1 else None
     ax.set_ylabel(f"Allan deviation [{unit or 'signal unit'}]")
-    ax.grid(True, which="both", alpha=0.3)
+    log_grid(ax)
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=120)
     return path

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from stochmod.cli._common import add_input_arguments, load_input, print_json
+from stochmod.core.plotting import log_grid
 from stochmod.empirical.psd import PSDReading, psd_reading
 
 __all__ = ["register", "run"]
@@ -55,7 +56,7 @@ def _plot(readings: dict[str, PSDReading], path: str) -> None:
                         color=line.get_color())
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("one-sided PSD (u$^2$/Hz)")
-    ax.grid(True, which="both", alpha=0.3)
+    log_grid(ax)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

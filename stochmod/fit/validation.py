@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 from stochmod.core.fields import array_field
 from stochmod.core.checks import as_signal, check_freq, check_positive_int
 from stochmod.core.errors import InputError
+from stochmod.core.plotting import log_grid
 from stochmod.fit.engine import resolve_model
 from stochmod.fit.results import GMWMResult
 from stochmod.core.model import Model
@@ -265,7 +266,7 @@ class ValidationBands:
         ax.set_xlabel("averaging time tau [s]")
         ax.set_ylabel(f"wavelet variance [{unit}^2]")
         ax.set_title(f"WV coverage {self.coverage:.0%}")
-        ax.grid(True, which="both", alpha=0.3)
+        log_grid(ax)
         ax.legend(fontsize="small")
 
     def _plot_psd(self, ax: Any, unit: str) -> None:
@@ -280,7 +281,7 @@ class ValidationBands:
         ax.set_yscale("log")
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel(f"one-sided PSD [{unit}^2/Hz]")
-        ax.grid(True, which="both", alpha=0.3)
+        log_grid(ax)
         ax.legend(fontsize="small")
 
 

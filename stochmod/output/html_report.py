@@ -195,7 +195,8 @@ def axis_figure(axis: ReportAxis) -> Any:
         from matplotlib.figure import Figure
     except ImportError:
         raise ImportError('the report figures need matplotlib: pip install "stochmod[plots]"') from None
-    from stochmod.output.plots import log_grid, plot_allan
+    from stochmod.core.plotting import log_grid
+    from stochmod.output.plots import plot_allan
 
     fit, unit = axis.selection.best, axis.datasheet.unit
     emp, J = fit.empirical, fit.levels

@@ -23,6 +23,7 @@ import numpy as np
 
 from stochmod.core.checks import check_positive_int
 from stochmod.core.errors import InputError
+from stochmod.core.plotting import log_grid
 from stochmod.core.process import as_generator
 from stochmod.core.units import convert, parse_unit
 from stochmod.empirical.wavelet_variance import wvar
@@ -30,7 +31,7 @@ from stochmod.empirical.wavelet_variance import wvar
 if TYPE_CHECKING:
     from stochmod.fit.results import GMWMResult
 
-__all__ = ["AllanCurves", "allan_figure", "allan_unit", "log_grid", "plot_allan", "plot_fit",
+__all__ = ["AllanCurves", "allan_figure", "allan_unit", "plot_allan", "plot_fit",
            "save_fit_figure", "simulated_wv"]
 
 FIGSIZE = (6.4, 4.8)  # inches
@@ -55,16 +56,6 @@ def _axes(ax: Any) -> Any:
     fig = _figure_class()(figsize=FIGSIZE)
     fig.subplots_adjust(**MARGINS)
     return fig.add_subplot()
-
-
-def log_grid(ax: Any) -> None:
-    """A grid on log-log axes `ax`: every decade, and minor lines at 2 and 5 times it (a
-    minor tick at each of 2..9 is most of the time of drawing a log-log figure)."""
-    from matplotlib.ticker import LogLocator
-
-    for axis in (ax.xaxis, ax.yaxis):
-        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-    ax.grid(True, which="both", alpha=0.3)
 
 
 def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | int = 0,
