@@ -22,7 +22,7 @@ half of imu1 (docs/outages_real_errors.md quotes this script's output).
    error signal of its own window, less the mean of the record it comes from.
 
 Run ``python studies/outages_real_errors.py [--quick] [--runs R] [--workers N] [--dt-filter S]
-[--keep DIR]``; about 10 minutes with the defaults on two cores. Needs ../shared/data beside
+[--keep DIR]``; about 2 minutes with the defaults on two cores. Needs ../shared/data beside
 the repository.
 """
 
@@ -197,7 +197,7 @@ def main() -> int:
     parser.add_argument("--dt-filter", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=2014)
     parser.add_argument("--quick", action="store_true",
-                        help="the 3.5 min drive with two 30 s outages of `stochmod outages "
+                        help="the 3 min drive with two 30 s outages of `stochmod outages "
                              "--quick`")
     parser.add_argument("--save", type=Path, default=None, metavar="FILE",
                         help="write the per-run numbers of both studies to this JSON file")

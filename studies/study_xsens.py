@@ -36,7 +36,7 @@ def _slowest_gm_and_wn(model: Model) -> Model:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--quick", action="store_true", help="3.5 min drive, two 30 s outages")
+    parser.add_argument("--quick", action="store_true", help="3 min drive, two 30 s outages")
     args = parser.parse_args()
     freq = 100.0
     truth = xsens_mtig_models(freq)
