@@ -17,12 +17,15 @@ from collections.abc import Sequence
 from concurrent.futures import Executor
 
 import attrs
-
 import numpy as np
 from numpy.typing import ArrayLike
 
 from stochmod.core.checks import as_signal, check_freq, check_positive_int
 from stochmod.core.errors import InputError, SpecError
+from stochmod.core.model import Model
+from stochmod.core.process import Process
+from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
+from stochmod.empirical.wv_classical import classical_wvar
 from stochmod.fit.bootstrap import INTERVALS, with_intervals
 from stochmod.fit.engine import Problem, resolve_model, search
 from stochmod.fit.indirect import IndirectGMWMResult, plan_binding
@@ -30,12 +33,8 @@ from stochmod.fit.replicates import is_replicates, pooled_wv
 from stochmod.fit.results import GMWMResult, JTest, ParameterEstimate
 from stochmod.fit.weighting import check_weighting_matrix
 from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
-from stochmod.core.model import Model
-from stochmod.core.process import Process
-from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
-from stochmod.empirical.wv_classical import classical_wvar
 
-__all__ = ["gmwm", "GMWMResult", "JTest", "ParameterEstimate"]
+__all__ = ["GMWMResult", "JTest", "ParameterEstimate", "gmwm"]
 
 
 def gmwm(
