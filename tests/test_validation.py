@@ -268,3 +268,28 @@ def test_validate_bad_input(gm_wn, kwargs, error, match):
 def test_validate_needs_data_with_a_model():
     with pytest.raises(InputError, match="x_or_wv"):
         validate(stochmod.model_from_spec("WN(sigma2=1.0)", FREQ))
+
+
+def test_a_robust_fit_is_validated_with_robust_wavelet_variances():
+    """Data and simulations go through the estimator the fit used: for a robust fit on data
+    with spikes, the data's WV is the robust one it was fitted to (the classical WV of the
+    spiky data is far above it at level 1), and each simulation's WV is the robust WV of
+    that series with the fit's efficiency."""
+    from stochmod.core.process import as_generator
+    from stochmod.output.plots import simulated_wv
+
+    truth = stochmod.model_from_spec("GM(beta=0.5, sigma2=1e-4) + WN(sigma2=1e-4)", FREQ)
+    x = truth.simulate(2**14, rng=3)
+    x[::500] += 0.5  # 33 spikes of 50 white-noise sigmas
+    fit = stochmod.gmwm(x, "GM+WN", FREQ, robust=True, efficiency=0.8)
+    bands = validate(fit, x, R=3, rng=4, psd=False)
+    J = fit.levels
+    np.testing.assert_allclose(bands.wv, fit.empirical.wv[:J], rtol=1e-12)
+    classical = stochmod.wvar(x, FREQ, levels=J).wv
+    assert classical[0] > 5 * bands.wv[0]
+    first = as_generator(4).spawn(3)[0]
+    y = fit.model.simulate(x.size, first)
+    own = stochmod.wvar(y, FREQ, levels=J, robust=True, efficiency=0.8).wv
+    np.testing.assert_allclose(bands.sim_wv[0], own, rtol=1e-12)
+    np.testing.assert_allclose(simulated_wv(fit, 3, rng=4)[0], own, rtol=1e-12)
+    assert np.max(np.abs(stochmod.wvar(y, FREQ, levels=J).wv / own - 1)) > 1e-3  # not classical

@@ -162,8 +162,7 @@ def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
         return None
     bands = None
     if simulated is not None:
-        bands = validate(fit, run_.record.data[:, k], R=n_sim, rng=seed, psd=False,
-                         simulated=simulated)
+        bands = validate(fit, fit.empirical, R=n_sim, rng=seed, psd=False, simulated=simulated)
     axis = extras.report_axis(run_, k, bands=bands)
     png = axis_figure_png(axis)
     path.write_bytes(png)

@@ -25,7 +25,7 @@ from stochmod.empirical.wv_classical import (
 )
 
 __all__ = ["WaveletVariance", "wvar", "modwt_coefficients", "chi2_interval", "CI_METHODS",
-           "NORMAL_CI_FLOOR"]
+           "NORMAL_CI_FLOOR", "same_estimator"]
 
 
 def wvar(
@@ -96,3 +96,14 @@ def wvar(
         return robust_wvar(x, freq, efficiency, wavelet=wavelet, levels=levels, ci=ci,
                            alpha=alpha, rho=rho)
     return classical_wvar(x, freq, wavelet=wavelet, levels=levels, ci=ci, alpha=alpha)
+
+
+def same_estimator(x: ArrayLike, like: WaveletVariance, levels: int | None = None
+                   ) -> WaveletVariance:
+    """:func:`wvar` of `x` by the estimator that gave `like`: its sampling frequency, wavelet
+    and, for a robust WV, its chi function and efficiency (default chi-square intervals); at
+    `levels` levels (default as many as `like`). What a simulated series is compared to data
+    with: a robust fit's band comes from robust WVs of its simulations."""
+    options = {"robust": True, "efficiency": like.efficiency, "rho": like.rho} if like.robust else {}
+    return wvar(x, like.freq, wavelet=like.wavelet, levels=like.wv.size if levels is None else levels,
+                **options)

@@ -29,7 +29,7 @@ from stochmod.core.model import Model
 from stochmod.core.process import Process, as_generator, has_theoretical_wv
 from stochmod.core.tables import format_table
 from stochmod.empirical.psd import psd as welch_psd
-from stochmod.empirical.wavelet_variance import WaveletVariance, wvar
+from stochmod.empirical.wavelet_variance import WaveletVariance, same_estimator, wvar
 
 __all__ = ["ValidationBands", "validate", "OctavePSD", "octave_psd"]
 
@@ -319,7 +319,9 @@ def validate(
     fit_or_model : GMWMResult, Model, Process, str or dict
         A fit (its model is used), or a model with every value given.
     x_or_wv : array_like or WaveletVariance, optional
-        The signal (u), or only its WV (then no PSD panel). Default: the fit's own data.
+        The signal (u), or only its WV (then no PSD panel). Default: the fit's own data. A
+        signal's WV, and every simulation's, is taken by the estimator of the fit's WV (robust
+        for a robust fit, with its chi function and efficiency); with a WV, by that WV's.
     freq : float, optional
         Sampling frequency, Hz (default: the model's or the WV's).
     R : int
@@ -372,8 +374,9 @@ def validate(
     model.vector()  # SpecError when a parameter is free: fit the model first
     R = check_positive_int(R, name="R", minimum=2)
     wavelet = emp.wavelet if emp is not None else (fit.empirical.wavelet if fit is not None else "haar")
-    if emp is None:
-        emp = wvar(signal, freq, wavelet=wavelet, levels=levels)
+    if emp is None:  # the data's WV by the estimator the fit used (robust for a robust fit)
+        emp = (wvar(signal, freq, wavelet=wavelet, levels=levels) if fit is None
+               else same_estimator(signal, fit.empirical, levels))
     J = emp.wv.size if levels is None else check_positive_int(levels, name="levels")
     if J > emp.wv.size:
         raise InputError(f"levels = {J} but the wavelet variance has {emp.wv.size} levels")
@@ -390,7 +393,7 @@ def validate(
         for g in as_generator(rng).spawn(R):
             y = model.simulate(n, g)
             if simulated is None:
-                sim_wv.append(wvar(y, freq, wavelet=wavelet, levels=J).wv)
+                sim_wv.append(same_estimator(y, emp, J).wv)
             if spec is not None:
                 sim_psd.append(welch_psd(y, freq, nperseg=spec.nperseg, window=spec.window).psd)
     sim_wv = np.array(sim_wv) if simulated is None else simulated

@@ -26,7 +26,7 @@ from stochmod.core.errors import InputError
 from stochmod.core.plotting import log_grid
 from stochmod.core.process import as_generator
 from stochmod.core.units import convert, parse_unit
-from stochmod.empirical.wavelet_variance import wvar
+from stochmod.empirical.wavelet_variance import same_estimator
 
 if TYPE_CHECKING:
     from stochmod.fit.results import GMWMResult
@@ -60,7 +60,9 @@ def _axes(ax: Any) -> Any:
 
 def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | int = 0,
                  n: int | None = None, *, indices: slice | None = None) -> np.ndarray:
-    """Empirical Haar WVs of `n_sim` series simulated from the fitted model.
+    """Empirical WVs of `n_sim` series simulated from the fitted model, by the estimator of
+    the fit's own WV (:func:`~stochmod.empirical.wavelet_variance.same_estimator`: robust for
+    a robust fit).
 
     Parameters
     ----------
@@ -87,9 +89,8 @@ def simulated_wv(fit: GMWMResult, n_sim: int = 20, rng: np.random.Generator | in
     children = as_generator(rng).spawn(n_sim)
     if indices is not None:
         children = children[indices]
-    freq, J = fit.model.freq, fit.levels
-    return np.array([wvar(fit.model.simulate(n, g), freq, levels=J,
-                          wavelet=fit.empirical.wavelet).wv for g in children]).reshape(-1, J)
+    return np.array([same_estimator(fit.model.simulate(n, g), fit.empirical, fit.levels).wv
+                     for g in children]).reshape(-1, fit.levels)
 
 
 def plot_fit(fit: GMWMResult, *, n_sim: int = 20, rng: np.random.Generator | int = 0,
