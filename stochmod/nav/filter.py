@@ -1354,6 +1354,11 @@ class _Run:
         hgt = prev[2] + lam * (mech.h - prev[2])
         v = np.array(prev[3]) + lam * (np.array(mech.v) - np.array(prev[3]))
         C = frames.quat_to_dcm(mech.q)
+        if tm < t1:
+            # the attitude at the fix's time too: dC_nb/dt = C_nb [w_nb x] over the interval,
+            # so C_nb(t_m) = C_nb(t_k) Exp(-(t_k - t_m) w_nb) (the lever-arm terms C l and
+            # C (w x l) otherwise take the attitude up to one IMU step late)
+            C = C @ frames.quat_to_dcm(frames.rotvec_to_quat(-(t1 - max(tm, t0)) * w_nb))
         arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
         return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
 
@@ -1367,6 +1372,12 @@ class _Run:
         if self.sens.lever is not None:
             lever = slice(9 + self.sens.lever.start, 9 + self.sens.lever.stop)
             H[:, lever] = meas.lever_arm_jacobian(snap)
+            navigation_only = False
+        J = meas.rate_jacobian(snap) if self.sens.n else None
+        if J is not None:
+            # the body rate is the gyro output less the estimated gyro error sens.H[:3] s, so
+            # its error is -sens.H[:3] times the sensor states' error
+            H[:, 9:] -= J @ self.sens.H[:3]
             navigation_only = False
         if lag > 0.0:
             # the fix measures the error at its own time t_m, e(t_m) = (I - lag F) e(t_k) to

@@ -5,6 +5,13 @@ covariance ``R``.
 Error states (all "estimate minus truth"): position ``dr`` (NED, m), velocity ``dv`` (NED, m/s),
 attitude ``psi`` (rad) with ``C_nb_hat = (I - [psi x]) C_nb``. Equations: Gonzalez et al. (2015)
 eq. 20g-20j and 20m (GNSS position with lever arm, GNSS velocity, magnetic heading), eq. 23 (R).
+Gonzalez's H (eq. 20m) keeps only the position and velocity blocks; here the lever-arm terms
+are differentiated as well (Groves 2013, Chapter 14): ``[(C l) x]`` and
+``[(C (w x l)) x]`` on the attitude error and, through :meth:`Measurement.rate_jacobian`,
+``-C [l x]`` on the error of the body rate, which the filter carries into its gyro-error
+states. The body rate is the NED-relative one, ``w_nb = w_ib - C_bn w_in`` (eq. 20h); the
+Earth-relative antenna velocity strictly needs ``w_eb = w_ib - C_bn w_ie``, a difference of
+``|w_en| |l|``, below 1e-5 m/s for a car.
 """
 
 from __future__ import annotations
@@ -60,6 +67,13 @@ class Measurement:
         """Jacobian of the innovation with respect to the lever-arm error (None: independent)."""
         return None
 
+    def rate_jacobian(self, s: Snapshot) -> np.ndarray | None:
+        """Jacobian of the innovation with respect to the error of the body rate ``w_nb_b``
+        it is predicted with (m, 3), or None when it does not use the body rate. The filter
+        carries it into the gyro-error states: the rate is the gyro output less the estimated
+        gyro error, so its error is minus the gyro-error estimate's."""
+        return None
+
 
 def _sd3(sd: object, name: str) -> np.ndarray:
     v = np.broadcast_to(np.asarray(sd, dtype=float), (3,)).copy()
@@ -103,6 +117,11 @@ class GnssPosition(Measurement):
 class GnssVelocity(Measurement):
     """Antenna velocity (Gonzalez eq. 20h): ``y = v_hat + C_nb (w_nb x l) - v_gnss``.
 
+    Its Jacobian (Groves 2013, Chapter 14, the loosely coupled velocity measurement with a
+    lever arm): ``I`` on the velocity error, ``[(C_nb (w_nb x l)) x]`` on the attitude
+    error (``d(C_hat a) = (C a) x psi``) and ``-C_nb [l x]`` on the error of the body rate
+    (:meth:`rate_jacobian`; the filter maps it to the gyro-error states).
+
     Attributes: vel_ned (3,), sd (3,) m/s, lever_arm (body, m).
     """
 
@@ -123,6 +142,11 @@ class GnssVelocity(Measurement):
     def lever_arm_jacobian(self, s: Snapshot) -> np.ndarray:
         """``d(C_nb (w_nb x l))/dl = C_nb [w_nb x]`` (eq. 20h with the lever arm as a state)."""
         return s.C_nb @ frames.skew(s.w_nb_b)
+
+    def rate_jacobian(self, s: Snapshot) -> np.ndarray | None:
+        """``d(C_nb (w_nb x l))/dw_nb = -C_nb [l x]`` (None without a lever arm)."""
+        arm = self.lever_arm if s.lever_arm is None else s.lever_arm
+        return None if not np.any(arm) else -s.C_nb @ frames.skew(arm)
 
 
 def heading_jacobian(C_nb: np.ndarray) -> np.ndarray:
