@@ -21,7 +21,12 @@ one at a time) and then ``python studies/nav_n380_ensemble.py`` (stochmod on the
 the table: per-outage mean, sd and standard error of both, and of the paired difference
 stochmod - pyins). ``--velocity`` does the same with position + velocity updates and no lever arm (the
 settings of the single-start comparison), cached in
-``tests/nav/reference/nav_pyins_n380_ensemble_velocity.json``; ``--first-seed`` starts the
+``tests/nav/reference/nav_pyins_n380_ensemble_velocity.json``, and ``--velocity --lever-arm``
+with the fitted lever arm fixed in both, cached in
+``tests/nav/reference/nav_pyins_n380_ensemble_velocity_lever_arm.json``; ``--pyins-jacobian``
+gives stochmod pyins' velocity Jacobian, without the lever-arm terms
+(``pyins_velocity_jacobian`` of tests/nav/_n380.py; docs/navigation_real_drive.md, "With
+velocity updates and the lever arm"); ``--first-seed`` starts the
 seeds elsewhere than 0. ``--error-model modified-phi`` runs stochmod with pyins' reset and feedback
 (the covariance held in ``(dv - v_hat x psi, psi)`` across each feedback;
 docs/navigation_real_drive.md, "The cause").
@@ -34,6 +39,7 @@ the end of each covariance step and each fix taken as the error at the next IMU 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -45,21 +51,33 @@ from stochmod.nav.filter import ERROR_MODELS
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-from _n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, LEVER_ARM, OUTAGE_DURATION,
-                   OUTAGE_STARTS, load_cache, load_n380, max_outage_errors, stochmod_runs,
-                   summary, verdict)
+from _n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, ENSEMBLE_VELOCITY_LEVER_ARM_JSON,
+                   LEVER_ARM, OUTAGE_DURATION, OUTAGE_STARTS, load_cache, load_n380,
+                   max_outage_errors, pyins_velocity_jacobian, stochmod_runs, summary,
+                   verdict)
 
 
-def run_pyins_seeds(drive, seeds: list[int], velocity: bool = False) -> dict:
+def cache_path(velocity: bool, lever_arm: bool) -> Path:
+    """The cache of pyins' runs for the updates and lever arm: position updates with the lever
+    arm (``ENSEMBLE_JSON``), position + velocity without it (``ENSEMBLE_VELOCITY_JSON``) or
+    with it (``ENSEMBLE_VELOCITY_LEVER_ARM_JSON``)."""
+    if not velocity:
+        return ENSEMBLE_JSON
+    return ENSEMBLE_VELOCITY_LEVER_ARM_JSON if lever_arm else ENSEMBLE_VELOCITY_JSON
+
+
+def run_pyins_seeds(drive, seeds: list[int], velocity: bool = False,
+                    lever_arm_too: bool = False) -> dict:
     """Run pyins for the seeds not in the cache, one at a time, saving after each run.
     ``velocity=False``: position updates, lever arm `LEVER_ARM` (``ENSEMBLE_JSON``); True:
-    position + velocity updates, no lever arm (``ENSEMBLE_VELOCITY_JSON``)."""
+    position + velocity updates, no lever arm (``ENSEMBLE_VELOCITY_JSON``), or with
+    ``lever_arm_too`` the lever arm `LEVER_ARM` (``ENSEMBLE_VELOCITY_LEVER_ARM_JSON``)."""
     import pyins
     from nav_pyins_n380 import (ACCEL, GYRO, INIT, POSITION_SD, VELOCITY_SD, initial_error,
                                 raw_inputs, run_pyins, states_at_outages)
 
-    path = ENSEMBLE_VELOCITY_JSON if velocity else ENSEMBLE_JSON
-    lever_arm = (0.0, 0.0, 0.0) if velocity else LEVER_ARM
+    path = cache_path(velocity, lever_arm_too)
+    lever_arm = LEVER_ARM if lever_arm_too or not velocity else (0.0, 0.0, 0.0)
     cache = load_cache(path)
     settings = {"gyro": GYRO, "accel": ACCEL, "position_sd_m": POSITION_SD, "initial": INIT,
                 "time_step_s": 0.1}
@@ -76,7 +94,7 @@ def run_pyins_seeds(drive, seeds: list[int], velocity: bool = False) -> dict:
         if str(seed) in cache["runs"]:
             continue
         result, wall = run_pyins(increments, gnss, pva0, velocity=velocity,
-                                 lever_arm=None if velocity else lever_arm, seed=seed)
+                                 lever_arm=lever_arm if any(lever_arm) else None, seed=seed)
         traj = result.trajectory
         errors = max_outage_errors(traj.index.to_numpy(), traj["lat"].to_numpy(),
                                    traj["lon"].to_numpy(), drive.reference, drive.t0)
@@ -156,20 +174,28 @@ def main(argv: list[str] | None = None) -> int:
                         help="position + velocity updates without a lever arm (the settings of "
                              "the single-start comparison) instead of position updates with "
                              "the fitted lever arm")
+    parser.add_argument("--lever-arm", action="store_true",
+                        help="with --velocity: the fitted lever arm fixed in both filters")
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--no-stochmod", action="store_true", help="skip stochmod's runs")
     parser.add_argument("--states", action="store_true",
                         help="also compare the two filters' states before each outage")
+    parser.add_argument("--pyins-jacobian", action="store_true",
+                        help="stochmod with pyins' GNSS velocity Jacobian (no lever-arm terms)")
     parser.add_argument("--error-model", default="psi", choices=ERROR_MODELS,
                         help="stochmod's error model (default psi; modified-phi: pyins' reset)")
     args = parser.parse_args(argv)
     drive = load_n380()
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    cache = (run_pyins_seeds(drive, seeds, args.velocity) if args.pyins
-             else load_cache(ENSEMBLE_VELOCITY_JSON if args.velocity else ENSEMBLE_JSON))
+    if args.lever_arm and not args.velocity:
+        parser.error("--lever-arm goes with --velocity (position updates always have it)")
+    cache = (run_pyins_seeds(drive, seeds, args.velocity, args.lever_arm) if args.pyins
+             else load_cache(cache_path(args.velocity, args.lever_arm)))
     if not args.no_stochmod and cache["runs"]:
-        ours = stochmod_runs(drive, cache, error_model=args.error_model)
-        print(f"stochmod error model: {args.error_model}")
+        with pyins_velocity_jacobian() if args.pyins_jacobian else contextlib.nullcontext():
+            ours = stochmod_runs(drive, cache, error_model=args.error_model)
+        print(f"stochmod error model: {args.error_model}"
+              + (", pyins' velocity Jacobian" if args.pyins_jacobian else ""))
         for seed in sorted(ours, key=int):
             print(f"seed {seed}: stochmod {np.round(ours[seed][0], 1)} m, pyins "
                   f"{np.round(cache['runs'][seed]['max_horizontal_error_m'], 1)} m")

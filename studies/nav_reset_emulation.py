@@ -14,15 +14,19 @@ of each other model minus psi with its standard error.
 
 Run ``python studies/nav_reset_emulation.py [--seeds 12] [--first-seed 0] [--still 120]
 [--fix-offset 0.005]`` (~6 s a seed and model here; ``--fix-offset`` stamps the fixes that many
-seconds after the IMU epochs, otherwise on them). It also compared two filter options since
-removed from the library, the exact reset Jacobian of the psi model (``"psi-exact"``) and F at
-the end of each covariance step with each fix taken as the error at the next IMU epoch; their
-results are in studies/README.md.
+seconds after the IMU epochs, otherwise on them). ``--velocity-sd SD`` adds GNSS velocity fixes
+of the antenna with that 1-sigma (m/s), and ``--jacobians full pyins`` runs each model also
+with pyins 1.0.1's velocity Jacobian, which leaves out the lever-arm terms
+(docs/navigation_real_drive.md, "With velocity updates and the lever arm"). It also compared
+two filter options since removed from the library, the exact reset Jacobian of the psi model
+(``"psi-exact"``) and F at the end of each covariance step with each fix taken as the error at
+the next IMU epoch; their results are in studies/README.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 from pathlib import Path
@@ -31,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "nav"))
 
-from _n380 import pyins_example_models
+from _n380 import pyins_example_models, pyins_velocity_jacobian
 
 from stochmod.nav import (ImuData, InitialState, LooselyCoupledFilter, Segment,
                           add_sensor_errors, gnss_measurements, ideal_imu,
@@ -58,8 +62,13 @@ def drive(still: float):
 
 
 def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
-             fix_offset: float = 0.0) -> dict[str, tuple[np.ndarray, float]]:
-    """Per error model: maximum horizontal error per outage (m) and mean NEES of one seed."""
+             fix_offset: float = 0.0, velocity_sd: float | None = None,
+             jacobians=("full",)) -> dict[str, tuple[np.ndarray, float]]:
+    """Per error model: maximum horizontal error per outage (m) and mean NEES of one seed.
+    `velocity_sd` (m/s): GNSS velocity fixes of the antenna with that noise, None: none;
+    `jacobians`: the velocity measurement's Jacobian, ``"full"`` (stochmod's) and/or
+    ``"pyins"`` (pyins 1.0.1's, without the lever-arm terms: ``pyins_velocity_jacobian``;
+    keyed ``MODEL/pyins-jacobian``)."""
     gyro, accel, gyro_bias_sd, accel_bias_sd = pyins_example_models()
     rng = np.random.default_rng(100 + seed)
     bias = np.r_[rng.normal(0, gyro_bias_sd, 3), rng.normal(0, accel_bias_sd, 3)]
@@ -70,7 +79,7 @@ def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
     imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h, "increment")
     # fixes `fix_offset` s after the IMU epochs (the n380's fall 0 to 10 ms after them)
     stamped = truth if not fix_offset else truth.at(truth.time[:-1] + fix_offset)
-    gnss = gnss_measurements(stamped, 1.0, sigma_h=1.0, sigma_v=1.0, sigma_vel=None,
+    gnss = gnss_measurements(stamped, 1.0, sigma_h=1.0, sigma_v=1.0, sigma_vel=velocity_sd,
                              lever_arm=LEVER_ARM, rng=rng)
     s0 = truth.at(truth.time[:1])
     e = rng.standard_normal(9) * INITIAL_SD
@@ -83,13 +92,17 @@ def one_seed(truth, clean: ImuData, outages, seed: int, models=ERROR_MODELS,
     out = {}
     windows = [(t0 + s, t0 + s + d) for s, d in outages]
     for model in models:
-        flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
-                                   accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
-                                   lever_arm=LEVER_ARM, error_model=model)
-        res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss,
-                      init=init, outages=outages, truth=truth)
-        out[model] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
-                      res.mean_nees)
+        for jac in jacobians:
+            flt = LooselyCoupledFilter(gyro, accel, dt_filter=0.1, gyro_bias_sd=gyro_bias_sd,
+                                       accel_bias_sd=accel_bias_sd, gate=None, gnss_sd=1.0,
+                                       gnss_vel_sd=velocity_sd or 0.1, lever_arm=LEVER_ARM,
+                                       error_model=model)
+            with pyins_velocity_jacobian() if jac == "pyins" else contextlib.nullcontext():
+                res = flt.run(imu.time, imu.gyro, imu.accel, kind="increment", gnss=gnss,
+                              init=init, outages=outages, truth=truth)
+            key = model if jac == "full" else f"{model}/pyins-jacobian"
+            out[key] = (max_outage_errors(truth, res.time, res.lat, res.lon, windows),
+                        res.mean_nees)
     return out
 
 
@@ -102,12 +115,18 @@ def main(argv: list[str] | None = None) -> int:
                         choices=ERROR_MODELS)
     parser.add_argument("--fix-offset", type=float, default=0.0,
                         help="GNSS fixes this many seconds after the IMU epochs (< one step)")
+    parser.add_argument("--velocity-sd", type=float, default=None,
+                        help="also GNSS velocity fixes with this 1-sigma (m/s)")
+    parser.add_argument("--jacobians", nargs="+", default=["full"], choices=["full", "pyins"],
+                        help="velocity Jacobian: stochmod's (full) and/or pyins' (no lever-arm "
+                             "terms)")
     args = parser.parse_args(argv)
     truth, outages = drive(args.still)
     clean = ideal_imu(truth, "increment")
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
-        runs.append(one_seed(truth, clean, outages, seed, args.models, args.fix_offset))
+        runs.append(one_seed(truth, clean, outages, seed, args.models, args.fix_offset,
+                             args.velocity_sd, args.jacobians))
         print(f"seed {seed}: " + "; ".join(f"{m} {np.round(e, 1)} m" for m, (e, _) in
                                              runs[-1].items()), flush=True)
     keys = list(runs[0])
@@ -115,7 +134,10 @@ def main(argv: list[str] | None = None) -> int:
     for m in keys:
         print(f"{m:28s} mean max horizontal error per outage {np.round(err[m].mean(0), 2)} m, "
               f"mean NEES {np.mean([r[m][1] for r in runs]):.2f}")
-    for m, base in [(m, "psi") for m in keys if m != "psi" and "psi" in keys]:
+    pairs = [(m, "psi") for m in keys if m != "psi" and "psi" in keys]
+    pairs += [(m, m.split("/")[0]) for m in keys if m.endswith("/pyins-jacobian")
+              and m.split("/")[0] != "psi" and m.split("/")[0] in keys]
+    for m, base in pairs:
         d = err[m] - err[base]
         se = d.std(0, ddof=1) / math.sqrt(len(d)) if len(d) > 1 else np.full(d.shape[1], np.nan)
         print(f"{m} - {base}: {np.round(d.mean(0), 2)} +- {np.round(se, 2)} m")

@@ -27,6 +27,7 @@ the antenna on the roof rack above the rear-right passenger without a measured l
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -40,6 +41,7 @@ from stochmod.nav.records import GnssData, ImuData
 __all__ = [
     "ENSEMBLE_JSON",
     "ENSEMBLE_VELOCITY_JSON",
+    "ENSEMBLE_VELOCITY_LEVER_ARM_JSON",
     "LEVER_ARM",
     "PEER_JSON",
     "SHORTNAME",
@@ -52,6 +54,7 @@ __all__ = [
     "max_outage_errors",
     "outage_windows",
     "pyins_example_models",
+    "pyins_velocity_jacobian",
     "run_stochmod",
     "onavdata_missing_reason",
     "states_before_outages",
@@ -75,6 +78,10 @@ ENSEMBLE_JSON = Path(__file__).parent / "reference" / "nav_pyins_n380_ensemble.j
 #: single-start comparison (studies/nav_n380_ensemble.py --velocity).
 ENSEMBLE_VELOCITY_JSON = (Path(__file__).parent / "reference"
                           / "nav_pyins_n380_ensemble_velocity.json")
+#: The same for position + velocity updates with the lever arm `LEVER_ARM` fixed
+#: (studies/nav_n380_ensemble.py --velocity --lever-arm).
+ENSEMBLE_VELOCITY_LEVER_ARM_JSON = (Path(__file__).parent / "reference"
+                                    / "nav_pyins_n380_ensemble_velocity_lever_arm.json")
 #: The IMU-to-antenna lever arm fitted from the drive's data (body x/y/z, m;
 #: docs/navigation.md, "Real drive").
 LEVER_ARM = (-1.3, 0.0, 0.0)
@@ -234,6 +241,33 @@ def pyins_example_models(freq: float = 100.0):
 
     gyro, accel = default_models(freq)
     return gyro, accel, DEFAULT_GYRO_BIAS_SD, DEFAULT_ACCEL_BIAS_SD
+
+
+@contextlib.contextmanager
+def pyins_velocity_jacobian():
+    """Within the block, stochmod's GNSS velocity measurement takes pyins 1.0.1's Jacobian:
+    the antenna velocity ``v + C (w x l)`` is predicted as before, but its derivative keeps only
+    the IMU velocity error (``NedVelocity.compute_matrices`` calls
+    ``ned_velocity_error_jacobian(pva)`` without the lever arm, so pyins' ``[v x]`` on its
+    attitude error, stochmod's zero, lacks ``[(C (w x l)) x]``, and pyins has no gyro-bias
+    column). For comparisons only (docs/navigation_real_drive.md, "With velocity updates and
+    the lever arm"): the full Jacobian is the derivative of the prediction
+    (tests/nav/test_lever_arm.py)."""
+    from stochmod.nav.measurements import GnssVelocity
+
+    evaluate, rate = GnssVelocity.evaluate, GnssVelocity.rate_jacobian
+
+    def truncated(self, snap):
+        y, H, R = evaluate(self, snap)
+        H[:, 6:9] = 0.0
+        return y, H, R
+
+    GnssVelocity.evaluate = truncated
+    GnssVelocity.rate_jacobian = lambda self, snap: None
+    try:
+        yield
+    finally:
+        GnssVelocity.evaluate, GnssVelocity.rate_jacobian = evaluate, rate
 
 
 def run_stochmod(drive: N380Drive, *, velocity: bool, gyro=None, accel=None,

@@ -4,6 +4,7 @@ drive survives the round trip through the ``navigate`` CSV formats."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 
@@ -13,9 +14,10 @@ import pytest
 from stochmod.nav import earth, frames
 from stochmod.nav.logs import read_gnss_csv, read_imu_csv
 
-from ._n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, LEVER_ARM, PEER_JSON, load_n380,
-                    max_outage_errors, onavdata_missing_reason, run_stochmod, stochmod_runs,
-                    summary, verdict, write_navigate_csvs)
+from ._n380 import (ENSEMBLE_JSON, ENSEMBLE_VELOCITY_JSON, ENSEMBLE_VELOCITY_LEVER_ARM_JSON,
+                    LEVER_ARM, PEER_JSON, load_n380, max_outage_errors, onavdata_missing_reason,
+                    pyins_velocity_jacobian, run_stochmod, stochmod_runs, summary, verdict,
+                    write_navigate_csvs)
 
 pytestmark = pytest.mark.skipif(onavdata_missing_reason() is not None,
                                 reason=str(onavdata_missing_reason()))
@@ -121,7 +123,7 @@ def test_real_drive_beside_pyins(drive, mode) -> None:
 # tests/nav/reference/nav_pyins_n380_ensemble.json by that script).
 # Outages 2 and 3: stochmod is worse than pyins beyond the ensemble's standard error by about a
 # metre (docs/navigation_real_drive.md, "Over seeded starts"), so "no worse" is not asserted
-# there (measured: +0.20 and +0.79 m; the states before every outage of every
+# there (measured: +0.21 and +0.80 m; the states before every outage of every
 # seed at most 0.35 of pyins' sigma from pyins', under the 0.5 asserted); the gap is held below
 # GAP_BOUND (m) so that it cannot grow unnoticed. Its cause is the
 # reset ("The cause"): with pyins' one the gap goes (test_real_drive_with_pyins_reset_...).
@@ -156,13 +158,13 @@ def test_real_drive_over_seeded_starts_beside_pyins(drive) -> None:
 
 # With pyins' reset and feedback (error_model="modified-phi", docs/navigation_real_drive.md,
 # "The cause" and "The residual of modified-phi") stochmod reproduces pyins' runs: per seed and
-# outage within MODIFIED_SLACK of pyins' maximum (plus half a metre), and before every outage
+# outage within MODIFIED_SLACK of pyins' maximum (plus MODIFIED_ABS), and before every outage
 # the attitude error and both biases within MODIFIED_STATE_SD of pyins' own 1-sigma. Measured:
-# at most 0.148 m, 0.21 of this error allowance, and 0.008 sigma (margins of 4.7 and 3); the psi
-# model misses both on these seeds (errors up to 11.4 m apart, states up to 0.34 sigma from
+# at most 0.129 m, 0.25 of this error allowance, and 0.008 sigma (margins of 3.9 and 3); the psi
+# model misses both on these seeds (errors up to 11.5 m apart, states up to 0.35 sigma from
 # pyins'). Over all the cached seeds this is also "no worse than pyins per outage": no
 # outage where stochmod is worse beyond 2 standard errors of the paired difference (measured,
-# 10 seeds: +0.05 +- 0.03, -0.01 +- 0.01 and -0.05 +- 0.01 m: not resolved, not resolved,
+# 10 seeds: -0.03 +- 0.02, -0.01 +- 0.01 and -0.04 +- 0.01 m: not resolved, not resolved,
 # better).
 MODIFIED_SLACK = 0.005
 MODIFIED_ABS = 0.25  # m
@@ -180,7 +182,7 @@ def test_real_drive_with_pyins_reset_reproduces_pyins(drive) -> None:
         peer = cache["runs"][seed]
         theirs = np.array(peer["max_horizontal_error_m"])
         np.testing.assert_array_less(np.abs(errors - theirs),
-                                     VELOCITY_MODIFIED_SLACK * theirs + MODIFIED_ABS,
+                                     MODIFIED_SLACK * theirs + MODIFIED_ABS,
                                      err_msg=f"seed {seed}")
         for name, sd in (("rph_error_deg", "rph_sd_deg"), ("gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
                          ("accel_bias_m_s2", "accel_bias_sd_m_s2")):
@@ -240,3 +242,63 @@ def test_real_drive_with_velocity_over_seeded_starts_beside_pyins(drive, error_m
         np.testing.assert_array_less(np.abs(errors - theirs),
                                      VELOCITY_MODIFIED_SLACK * theirs + MODIFIED_ABS,
                                      err_msg=f"seed {seed}")
+
+
+# Position + velocity updates with the fitted lever arm fixed in both filters, over the seeded
+# starts of tests/nav/reference/nav_pyins_n380_ensemble_velocity_lever_arm.json
+# (studies/nav_n380_ensemble.py --velocity --lever-arm; docs/navigation_real_drive.md, "With
+# velocity updates and the lever arm"). pyins 1.0.1 predicts the antenna velocity
+# v + C (w x l) but differentiates only v: its Jacobian lacks [(C (w x l)) x] on the attitude
+# error and the gyro-bias column, which stochmod's has (the derivative of the prediction,
+# tests/nav/test_lever_arm.py). With pyins' Jacobian (pyins_velocity_jacobian) the
+# modified-phi filter reproduces pyins: every seed and outage within MODIFIED_SLACK of pyins'
+# plus MODIFIED_ABS (measured at most 0.105 m, 0.36 of the allowance), the states within
+# MODIFIED_STATE_SD of pyins' sigma (measured at most 0.011) and no outage nor the sum worse at
+# 2 standard errors (measured -0.02 +- 0.01, -0.04 +- 0.01, -0.03 +- 0.01, sum -0.08 +- 0.02 m).
+# With its own Jacobian each model is held to the comparison's per-outage figure, its mean
+# within LEVER_VELOCITY_RELATIVE of pyins' (measured: modified-phi +2.4, +0.2, +0.4 %; psi
+# -0.2, +3.5, +1.9 %), its states within LEVER_VELOCITY_STATE_SD of pyins' sigma (measured
+# 0.080 and 0.129), and the sum's excess over pyins' below LEVER_VELOCITY_SUM_BOUND (measured
+# +0.92 +- 0.17 m modified-phi, +0.44 +- 0.19 m psi: the complete Jacobian costs this recording
+# about a metre in outage 1, where on emulated drives with known truth it is no worse,
+# studies/nav_reset_emulation.py --velocity-sd).
+LEVER_VELOCITY_RELATIVE = 0.10
+LEVER_VELOCITY_STATE_SD = {"psi": 0.5, "modified-phi": 0.2}
+LEVER_VELOCITY_SUM_BOUND = 2.0  # m
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("error_model, jacobian", [("modified-phi", "pyins"),
+                                                   ("modified-phi", "stochmod"),
+                                                   ("psi", "stochmod")])
+def test_real_drive_with_velocity_and_lever_arm_over_seeded_starts_beside_pyins(
+        drive, error_model, jacobian) -> None:
+    cache = json.loads(ENSEMBLE_VELOCITY_LEVER_ARM_JSON.read_text())
+    assert cache["lever_arm_m"] == list(LEVER_ARM) and cache["mode"] == "position_velocity"
+    assert len(cache["runs"]) >= 8
+    with pyins_velocity_jacobian() if jacobian == "pyins" else contextlib.nullcontext():
+        runs = stochmod_runs(drive, cache, error_model=error_model)
+    s = summary({seed: r[0] for seed, r in runs.items()}, cache)
+    assert all((r[0] > 1.0).all() for r in runs.values())  # dead reckoning: metres, not a copy
+    sums = np.array([runs[k][0].sum() - sum(cache["runs"][k]["max_horizontal_error_m"])
+                     for k in runs])
+    se = sums.std(ddof=1) / np.sqrt(sums.size)
+    limit = MODIFIED_STATE_SD if jacobian == "pyins" else LEVER_VELOCITY_STATE_SD[error_model]
+    for seed, (_, ours) in runs.items():
+        theirs = cache["runs"][seed]["states_at_outages"]
+        for name, sd in (("rph_error_deg", "rph_sd_deg"), ("gyro_bias_deg_h", "gyro_bias_sd_deg_h"),
+                         ("accel_bias_m_s2", "accel_bias_sd_m_s2")):
+            np.testing.assert_array_less(np.abs(np.subtract(ours[name], theirs[name])),
+                                         limit * np.array(theirs[sd]), err_msg=f"{seed} {name}")
+    if jacobian == "pyins":  # pyins' filter, reproduced
+        assert "worse" not in verdict(s), (verdict(s), s["difference_mean"], s["difference_se"])
+        assert sums.mean() - 2 * se <= 0
+        for seed, (errors, _) in runs.items():
+            theirs = np.array(cache["runs"][seed]["max_horizontal_error_m"])
+            np.testing.assert_array_less(np.abs(errors - theirs),
+                                         MODIFIED_SLACK * theirs + MODIFIED_ABS,
+                                         err_msg=f"seed {seed}")
+        return
+    np.testing.assert_array_less(s["stochmod_mean"],
+                                 (1 + LEVER_VELOCITY_RELATIVE) * s["pyins_mean"])
+    assert sums.mean() < LEVER_VELOCITY_SUM_BOUND
