@@ -7,9 +7,10 @@ feature: :func:`export_noise`, :func:`write_exports_for`, :func:`write_report_fo
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import attrs
 
@@ -128,17 +129,22 @@ def _report_axes(run_: CalibrationRun, drawn: Sequence[ReportAxis | None] = (),
 
 
 def report_overview(args: argparse.Namespace, run_: CalibrationRun,
-                    noise: Sequence[AxisNoise] | None = None) -> bytes | None:
-    """The PNG of the report's Allan overview (with ``--report`` and matplotlib, else None),
-    with the exported terms `noise` (:func:`export_noise`), for :func:`write_report_for`:
-    drawn while the workers draw the columns' figures."""
+                    noise: Sequence[AxisNoise] | None = None, executor: Any = None
+                    ) -> Callable[[], bytes | None]:
+    """Start the report's Allan overview, with the exported terms `noise`
+    (:func:`export_noise`), for :func:`write_report_for`; the call returned gives its PNG
+    (None without ``--report`` or matplotlib). On `executor` (a pool of worker processes,
+    which draw the columns' figures too) it is drawn there, else when the call is made."""
     import importlib.util
 
     if not args.report or not run_.selections or importlib.util.find_spec("matplotlib") is None:
-        return None
+        return lambda: None
     from stochmod.output.html_report import allan_overview_png
 
-    return allan_overview_png(_report_axes(run_, noise=noise))
+    axes = _report_axes(run_, noise=noise)
+    if executor is None:
+        return functools.partial(allan_overview_png, axes)
+    return executor.submit(allan_overview_png, axes).result
 
 
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],

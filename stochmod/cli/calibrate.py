@@ -175,9 +175,11 @@ def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
     and gives what :func:`_figures` gives.
 
     Without simulations and on a pool of worker processes, every figure goes to the workers
-    at once (the selection has left them idle), so that this process writes the exports and
-    draws the report's Allan overview meanwhile; otherwise the figures are drawn when the
-    returned call is made (:func:`_figures`). The figures are the same either way.
+    at once (the selection has left them idle), and this process solves the exports' bounds
+    meanwhile (the report's Allan overview, which shows them, follows on the workers:
+    :func:`~stochmod.cli._calibrate_outputs.report_overview`); otherwise the figures are
+    drawn when the returned call is made (:func:`_figures`). The figures are the same either
+    way.
     """
     import importlib.util
 
@@ -476,7 +478,8 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     drawing = list if args.no_plots else _start_figures(run_, out, args.n_sim, args.seed, pool)
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
-    overview = extras.report_overview(args, run_, noise)
+    drawing_pool = None if pool is None or isinstance(pool, SerialExecutor) else pool
+    overview = extras.report_overview(args, run_, noise, drawing_pool)
     rec = run_.record
     drawn = drawing()
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
@@ -484,7 +487,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise, overview)
+    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise, overview())
     if quiet:
         return report
     if args.json:
