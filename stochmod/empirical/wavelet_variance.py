@@ -12,6 +12,8 @@ coefficients enter the estimate (no boundary rule, unbiased).
 
 from __future__ import annotations
 
+from typing import Any
+
 from numpy.typing import ArrayLike
 
 from stochmod.empirical.modwt import modwt_coefficients
@@ -25,7 +27,7 @@ from stochmod.empirical.wv_classical import (
 )
 
 __all__ = ["WaveletVariance", "wvar", "modwt_coefficients", "chi2_interval", "CI_METHODS",
-           "NORMAL_CI_FLOOR", "same_estimator"]
+           "NORMAL_CI_FLOOR", "estimator_options", "same_estimator"]
 
 
 def wvar(
@@ -98,12 +100,19 @@ def wvar(
     return classical_wvar(x, freq, wavelet=wavelet, levels=levels, ci=ci, alpha=alpha)
 
 
+def estimator_options(emp: WaveletVariance) -> dict[str, Any]:
+    """The :func:`wvar` options that reproduce `emp`'s estimator (empty for the classical one;
+    ``robust``, ``efficiency``, ``rho`` for a robust one)."""
+    if not emp.robust:
+        return {}
+    return {"robust": True, "efficiency": emp.efficiency, "rho": emp.rho}
+
+
 def same_estimator(x: ArrayLike, like: WaveletVariance, levels: int | None = None
                    ) -> WaveletVariance:
     """:func:`wvar` of `x` by the estimator that gave `like`: its sampling frequency, wavelet
     and, for a robust WV, its chi function and efficiency (default chi-square intervals); at
     `levels` levels (default as many as `like`). What a simulated series is compared to data
     with: a robust fit's band comes from robust WVs of its simulations."""
-    options = {"robust": True, "efficiency": like.efficiency, "rho": like.rho} if like.robust else {}
     return wvar(x, like.freq, wavelet=like.wavelet, levels=like.wv.size if levels is None else levels,
-                **options)
+                **estimator_options(like))

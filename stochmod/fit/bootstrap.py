@@ -16,7 +16,7 @@ eq. 35, used there for the weighting matrix):
    :class:`numpy.random.SeedSequence`, so the draws do not depend on how they are spread
    over workers;
 2. each record's empirical WV is computed with the fit's estimator (wavelet, levels, robust
-   options: :func:`stochmod.fit.weighting.estimator_options`);
+   options: :func:`stochmod.empirical.wavelet_variance.estimator_options`);
 3. eq. 20 is solved again by one local search of the engine
    (:func:`stochmod.fit.engine.refine`, Levenberg-Marquardt) from the fit's estimate, with
    the weighting the fit used: a weighting computed from the WV alone (``"diagonal"``,
@@ -53,10 +53,10 @@ from stochmod.core.errors import DomainError, EstimationError, InputError
 from stochmod.core.model import Model
 from stochmod.core.parallel import single_threaded_blas
 from stochmod.core.tables import format_table
-from stochmod.empirical.wavelet_variance import wvar
+from stochmod.empirical.wavelet_variance import estimator_options, wvar
 from stochmod.fit.engine import Problem, canonical, full_rank, refine, weighted_svd
 from stochmod.fit.results import GMWMResult, JTest, JTestForm
-from stochmod.fit.weighting import check_weighting_matrix, estimator_options, model_covariance
+from stochmod.fit.weighting import check_weighting_matrix, model_covariance
 from stochmod.fit.weighting_plugins import WeightingInput, get_weighting
 
 __all__ = [

@@ -29,14 +29,13 @@ from stochmod.fit.weighting import (
     bootstrap_covariance,
     chi2_variance,
     data_covariance,
-    estimator_options,
     model_covariance,
 )
 from stochmod.core.model import Model
 from stochmod.core.process import Process
 from stochmod.core.tables import format_table
 from stochmod.empirical.pooled import PooledWaveletVariance
-from stochmod.empirical.wavelet_variance import WaveletVariance
+from stochmod.empirical.wavelet_variance import WaveletVariance, estimator_options
 
 __all__ = ["GMWMResult", "JTest", "JTestForm", "ParameterEstimate", "Binding", "Resampling",
            "negligible_components", "JTEST_MIN_EDF"]

@@ -29,7 +29,6 @@ __all__ = [
     "decoupled_covariance",
     "data_covariance",
     "bootstrap_covariance",
-    "estimator_options",
     "model_covariance",
     "weighting_from_covariance",
     "check_weighting_matrix",
@@ -154,20 +153,12 @@ def data_covariance(x: np.ndarray, emp: WaveletVariance, levels: int) -> np.ndar
     return V * np.outer(ratio, ratio)
 
 
-def estimator_options(emp: WaveletVariance) -> dict[str, Any]:
-    """The :func:`~stochmod.empirical.wavelet_variance.wvar` options that reproduce `emp`'s
-    estimator (empty for the classical one; ``robust``, ``efficiency``, ``rho`` for a robust one)."""
-    if not emp.robust:
-        return {}
-    return {"robust": True, "efficiency": emp.efficiency, "rho": emp.rho}
-
-
 def bootstrap_covariance(model: Model, n: int, levels: int, *, reps: int = 100,
                          rng: np.random.Generator | int = 0, wavelet: str = "haar",
                          **estimator: Any) -> np.ndarray:
     """Parametric bootstrap covariance of the empirical WV (eq. 35): `reps` simulations of
     `n` samples from `model` (all values given, bound to its frequency), seeded; J x J, unit^4.
-    `estimator` holds wvar's estimator options (:func:`estimator_options`: the robust WV's)."""
+    `estimator` holds wvar's estimator options (:func:`~stochmod.empirical.wavelet_variance.estimator_options`: the robust WV's)."""
     reps = check_positive_int(reps, name="reps", minimum=2)
     gen = as_generator(rng)
     sims = np.array([

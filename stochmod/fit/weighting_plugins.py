@@ -31,12 +31,11 @@ from stochmod.core.errors import InputError
 from stochmod.fit.weighting import (
     bootstrap_covariance,
     data_covariance,
-    estimator_options,
     level_variances,
     weighting_from_covariance,
 )
 from stochmod.plugin.hookspecs import hookimpl
-from stochmod.empirical.wavelet_variance import WaveletVariance
+from stochmod.empirical.wavelet_variance import WaveletVariance, estimator_options
 
 if TYPE_CHECKING:
     from stochmod.fit.results import GMWMResult
