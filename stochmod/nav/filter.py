@@ -1358,7 +1358,7 @@ class _Run:
             # the attitude at the fix's time too: dC_nb/dt = C_nb [w_nb x] over the interval,
             # so C_nb(t_m) = C_nb(t_k) Exp(-(t_k - t_m) w_nb) (the lever-arm terms C l and
             # C (w x l) otherwise take the attitude up to one IMU step late)
-            C = C @ frames.quat_to_dcm(frames.rotvec_to_quat(-(t1 - max(tm, t0)) * w_nb))
+            C = C @ frames.rotvec_to_dcm(-(t1 - max(tm, t0)) * w_nb)
         arm = None if self.sens.lever is None else self.s[self.sens.lever].copy()
         return Snapshot(lat, lon, hgt, v, C, w_nb, np.array(mech.w_in), arm)
 

@@ -15,6 +15,8 @@ All functions are vectorised over leading dimensions (``(..., 3)``, ``(..., 4)``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -28,6 +30,7 @@ __all__ = [
     "rotvec_to_quat",
     "quat_to_rotvec",
     "dcm_to_rotvec",
+    "rotvec_to_dcm",
     "rph_to_dcm",
     "dcm_to_rph",
     "rph_to_quat",
@@ -148,6 +151,24 @@ def quat_to_rotvec(q: ArrayLike) -> np.ndarray:
     small = s < 1e-12
     k = np.where(small, 2.0, angle / np.where(small, 1.0, s))
     return k[..., None] * q[..., 1:]
+
+
+def rotvec_to_dcm(phi: ArrayLike) -> np.ndarray:
+    """Rotation matrix of one rotation vector `phi` (3,), rad, by Rodrigues' formula
+    ``I + (sin a / a) [phi x] + ((1 - cos a) / a^2) [phi x]^2``, ``a = |phi|`` (series near
+    zero); the matrix of :func:`rotvec_to_quat` (the filter's small per-fix rotations,
+    without the arrays of the quaternion path)."""
+    x, y, z = (float(c) for c in np.asarray(phi, dtype=float).reshape(3))
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-12:
+        s, c = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0
+    else:
+        a = math.sqrt(a2)
+        s, c = math.sin(a) / a, (1.0 - math.cos(a)) / a2
+    return np.array([
+        [1.0 - c * (y * y + z * z), c * x * y - s * z, c * x * z + s * y],
+        [c * x * y + s * z, 1.0 - c * (x * x + z * z), c * y * z - s * x],
+        [c * x * z - s * y, c * y * z + s * x, 1.0 - c * (x * x + y * y)]])
 
 
 def dcm_to_rotvec(C: ArrayLike) -> np.ndarray:

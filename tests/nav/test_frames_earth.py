@@ -52,6 +52,16 @@ def test_rotvec_quat_matches_scipy_and_skew_is_cross(v):
     np.testing.assert_allclose(frames.skew(v) @ w, np.cross(v, w), atol=1e-14)
 
 
+@settings(max_examples=80, deadline=None)
+@given(st.tuples(*[st.floats(-3.0, 3.0)] * 3), st.sampled_from([1.0, 1e-3, 1e-6, 1e-9, 0.0]))
+def test_rotvec_to_dcm_is_scipys_rotation_down_to_zero(v, scale):
+    """Rodrigues' matrix against scipy's, over the angles the filter's per-fix rotations take
+    (tiny ones, where the series near zero is used) and up to 5 rad."""
+    v = np.array(v) * scale
+    np.testing.assert_allclose(frames.rotvec_to_dcm(v), Rotation.from_rotvec(v).as_matrix(),
+                               rtol=0, atol=1e-14)
+
+
 def test_dcm_to_quat_near_half_turns():
     for rv in ([np.pi, 0, 0], [0, np.pi - 1e-9, 0], [0, 0, -np.pi], [2.0, 2.0, 1.0]):
         C = Rotation.from_rotvec(rv).as_matrix()
