@@ -24,7 +24,6 @@ from collections.abc import Mapping, Sequence
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.integrate import solve_ivp
 
 from stochmod.core.errors import InputError
 from stochmod.core.model import Model
@@ -102,6 +101,8 @@ class _ProfileMotion:
         self.t0 = t0
         self.knots = knots            # (m+1,) segment boundaries, s
         self.values = values          # (m+1, 4): speed, heading, pitch, roll (rad) at the knots
+        from scipy.integrate import solve_ivp  # here: half the import time of stochmod.nav
+
         t_end = knots[-1]
         sol = solve_ivp(self._rhs, (t0, t_end), [lat, lon, height], method="DOP853",
                         rtol=1e-12, atol=[1e-14, 1e-14, 1e-7], dense_output=True,
