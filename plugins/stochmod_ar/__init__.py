@@ -35,7 +35,6 @@ from typing import Any, ClassVar
 import attrs
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 from numpy.typing import ArrayLike
 
 from stochmod.sdk import (
@@ -526,6 +525,8 @@ def _ar1_from_ratio(ratio: float) -> float:
         return lo
     if f(hi) <= 0:
         return hi
+    import scipy.optimize  # here: the registry loads every plugin, and only AR starts use it
+
     return float(scipy.optimize.brentq(f, lo, hi, xtol=1e-12))
 
 

@@ -13,7 +13,6 @@ from functools import lru_cache
 
 import attrs
 import numpy as np
-from scipy.optimize import least_squares, linprog
 
 from stochmod.sdk import EstimationError, format_table
 
@@ -32,6 +31,8 @@ def default_levels(nu_c: float) -> int:
 
 def _minimax_weights(G: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Non-negative w minimising ``max_j |(G w)_j - 1|`` (a linear programme), or None."""
+    from scipy.optimize import linprog  # here: the registry loads every plugin at start-up
+
     J, K = G.shape
     ones = np.ones((J, 1))
     res = linprog(np.r_[np.zeros(K), 1.0],
@@ -69,6 +70,8 @@ def fit_unit_gms(nu_c: float, n_gm: int, levels: int) -> tuple[np.ndarray, np.nd
 
     lo = np.r_[np.full(n_gm, a - 5.0), np.full(n_gm, -60.0)]
     hi = np.r_[np.full(n_gm, math.log(D_HI) + 5.0), np.full(n_gm, 20.0)]
+    from scipy.optimize import least_squares
+
     fit = least_squares(residuals, np.r_[s0, np.log(w0)], bounds=(lo, hi), x_scale=1.0)
     if not np.all(np.isfinite(fit.x)):
         raise EstimationError(f"GM approximation of BI at fc/freq = {nu_c:g} failed: {fit.message}")

@@ -85,7 +85,7 @@ import attrs
 import numpy as np
 import scipy.fft
 from numpy.typing import ArrayLike
-from scipy import optimize, special
+from scipy import special
 
 from stochmod.core.fields import array_field
 from stochmod.core.checks import as_signal, check_alpha, check_freq
@@ -247,6 +247,13 @@ def _biweight_coef(c: float) -> tuple[float, ...]:
     return (0.0, *(b / c ** (2 * i) for i, b in enumerate(binom)))
 
 
+def _brentq(f: Any, a: float, b: float, **tolerances: float) -> float:
+    """:func:`scipy.optimize.brentq`, imported at the first call (scipy.optimize is half a
+    second of import, and every command that loads the plugins imports this module)."""
+    from scipy.optimize import brentq
+
+    return brentq(f, a, b, **tolerances)
+
 def _make(rho: str, c: float) -> ScaleRho:
     if rho == "biweight":
         return ScaleRho("biweight", c, _biweight_coef(c), 0.0)
@@ -277,9 +284,9 @@ def scale_rho(efficiency: float = DEFAULT_EFFICIENCY, rho: str = "biweight") -> 
         raise InputError("efficiency 1 is the classical estimator: it has no tuning constant")
     low = 1e-3
     if rho == "biweight":  # below the root of B the equation has no consistent branch
-        low = optimize.brentq(lambda c: _make(rho, c).slope, 1.5, 3.5, xtol=1e-14)
+        low = _brentq(lambda c: _make(rho, c).slope, 1.5, 3.5, xtol=1e-14)
         low *= 1.0 + 1e-9
-    c = optimize.brentq(lambda c: _make(rho, c).efficiency - efficiency, low, 200.0, xtol=1e-13,
+    c = _brentq(lambda c: _make(rho, c).efficiency - efficiency, low, 200.0, xtol=1e-13,
                         rtol=1e-14)
     return _make(rho, c)
 
@@ -396,7 +403,7 @@ def _scan_largest_root(score: Any, u_max: float, u_min: float, delta: float) -> 
         v_new = 0.9 * v
         f_new = score(v_new)
         if f_new > 0 > f_hi:
-            return optimize.brentq(score, v_new, v, xtol=1e-15 * v, rtol=1e-13)
+            return _brentq(score, v_new, v, xtol=1e-15 * v, rtol=1e-13)
         v, f_hi = v_new, f_new
     raise NoRootError("the robust scale equation has no root: mean(chi(w^2/v)) < delta for "
                       "every v (too few effectively independent coefficients)")
@@ -447,7 +454,7 @@ def _solve(first: tuple[np.ndarray, np.ndarray, np.ndarray], full: Callable[[], 
         ub_sorted, score = _sorted_score(ub, sums, coef, rho.outside, c2, delta, M, hi)
         f_lo, f_hi = score(lo), score(hi)
         if f_lo > 0 and f_hi < 0:
-            v = optimize.brentq(score, lo, hi, xtol=1e-15, rtol=1e-13)
+            v = _brentq(score, lo, hi, xtol=1e-15, rtol=1e-13)
             break
         wn = full()
         if f_lo <= 0:  # the largest root may lie anywhere below: scan all coefficients

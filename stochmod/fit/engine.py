@@ -24,11 +24,10 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import attrs
 import numpy as np
-from scipy import optimize
 
 from stochmod.core.errors import EstimationError, SpecError
 from stochmod.fit.lsq import levenberg_marquardt
@@ -36,6 +35,9 @@ from stochmod.fit.vector_binding import VectorBinding
 from stochmod.core.model import Model, as_model
 from stochmod.plugin.spec import model_from_spec
 from stochmod.core.process import Process
+
+if TYPE_CHECKING:
+    from scipy import optimize
 
 __all__ = [
     "BOUND",
@@ -318,6 +320,8 @@ def refine(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
         if method == "lm":
             return levenberg_marquardt(fun, jac, x0, (-BOUND, BOUND), ftol=tol, xtol=tol, gtol=tol,
                                        max_nfev=max_nfev, callback=callback)
+        from scipy import optimize  # here: the plugin registry imports this module at start-up
+
         extra = {} if callback is None else {"callback": callback}
         return optimize.least_squares(
             fun, np.clip(x0, -BOUND, BOUND), jac=jac, bounds=(-BOUND, BOUND),

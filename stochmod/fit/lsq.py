@@ -26,12 +26,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import lapack
-from scipy.optimize import OptimizeResult
 
 from stochmod.core.errors import EstimationError
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult
 
 __all__ = ["levenberg_marquardt"]
 
@@ -99,6 +102,8 @@ def levenberg_marquardt(
     ValueError
         A start that is not finite, or non-finite residuals or Jacobian there.
     """
+    from scipy.optimize import OptimizeResult  # here: scipy.optimize is slow to import
+
     lo, hi = float(bounds[0]), float(bounds[1])
     x = np.minimum(np.maximum(np.asarray(x0, dtype=np.float64), lo), hi)
     if not all(map(math.isfinite, x.tolist())):
