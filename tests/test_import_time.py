@@ -33,10 +33,18 @@ def test_package_import_loads_no_heavy_module(code: str) -> None:
     assert _loaded(code) == dict.fromkeys(HEAVY, False)
 
 
+def test_calibrate_and_its_report_load_neither_scipy_signal_nor_stats() -> None:
+    # calibrate's figures are drawn by worker processes that import the report module:
+    # scipy.signal and scipy.stats (a second of import in each) are for PSDs and readings
+    loaded = _loaded("import stochmod.cli.calibrate, stochmod.output.html_report")
+    assert not loaded["scipy.signal"] and not loaded["scipy.stats"]
+
+
 def test_lazy_names_resolve_to_their_modules() -> None:
     # the probe must see the heavy modules once a name that needs them is used, else the
     # test above could pass on a broken probe
-    loaded = _loaded("import stochmod\nstochmod.fit_garch\nstochmod.select\nstochmod.psd")
+    loaded = _loaded("import numpy, stochmod\nstochmod.fit_garch\nstochmod.select\n"
+                     "stochmod.psd(numpy.random.default_rng(0).normal(size=256), 1.0)")
     assert loaded["scipy.signal"] and loaded["networkx"] and loaded["scipy.stats"]
     import stochmod
     from stochmod.fit.garch import fit_garch

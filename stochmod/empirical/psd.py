@@ -30,8 +30,6 @@ from typing import Any
 import attrs
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import signal as sp_signal
-from scipy import stats
 
 from stochmod.core.checks import as_signal, check_freq, check_positive_int
 from stochmod.core.errors import InputError
@@ -61,6 +59,8 @@ _SCALE = {"N": 0.5, "B": math.pi, "K": 2.0 * math.pi**2}
 def _chi2_interval(
     values: np.ndarray, dof: np.ndarray, level: float
 ) -> tuple[np.ndarray, np.ndarray]:
+    from scipy import stats  # here: scipy.stats and scipy.signal are a second of import
+
     alpha = 1.0 - level
     u, inv = np.unique(dof, return_inverse=True)  # quantiles once per distinct dof
     lo = (u / stats.chi2.ppf(1.0 - alpha / 2.0, u))[inv]
@@ -153,6 +153,8 @@ def _bin_correlation(window: str, nperseg: int, max_shift: int = 8) -> np.ndarra
     ``rho_k = |sum w_t^2 exp(-2 pi i k t / M)|^2 / (sum w_t^2)^2`` for a Gaussian process with a
     locally flat spectrum (Hann: 1, 4/9, 1/36, 0, ...).
     """
+    from scipy import signal as sp_signal
+
     w2 = sp_signal.get_window(window, nperseg) ** 2
     spec = np.abs(np.fft.rfft(w2)[: max_shift + 1]) ** 2
     rho = spec / spec[0]
@@ -221,6 +223,8 @@ def psd(
     if nperseg > n:
         raise InputError(f"nperseg = {nperseg} exceeds the signal length {n}")
     noverlap = nperseg // 2
+    from scipy import signal as sp_signal
+
     f, p = sp_signal.welch(x, fs=freq, window=window, nperseg=nperseg, noverlap=noverlap,
                            detrend="constant", return_onesided=True, scaling="density",
                            average=average)
@@ -429,6 +433,8 @@ def _fit_term(name: str, raw: PowerSpectrum, sel: np.ndarray, groups: np.ndarray
         rel_var = 2.0 / nu / _effective_counts(counts, rho)
         red_chi2 = float(np.sum((rel_means - 1.0) ** 2 / rel_var)) / (uniq.size - 1)
         rel_se *= math.sqrt(max(1.0, red_chi2))
+    from scipy import stats
+
     z = float(stats.norm.ppf(0.5 + level / 2.0))
     value = math.sqrt(c_hat * _SCALE[name])
     se_log = rel_se / 2.0
