@@ -386,3 +386,23 @@ def test_a_component_of_negligible_amplitude_is_not_identified():
     assert negligible_components(fit) == ["QN"]
     assert not identified(fit)
     assert identified(stochmod.gmwm(x, "WN", 100.0))
+
+
+def _loaded(name: str) -> bool:
+    import sys
+
+    return name in sys.modules
+
+
+def test_process_pool_workers_import_the_warm_modules_as_they_start():
+    """A worker imports the `warm` modules before its first task (a missing one is skipped:
+    the task that needs it reports it); without `warm` it has only what it inherited."""
+    import sys
+
+    from stochmod.core.parallel import process_pool
+
+    assert "tabnanny" not in sys.modules  # a standard module nothing here imports
+    with process_pool(1, warm=("tabnanny", "no_such_module_for_the_test")) as pool:
+        assert pool.submit(_loaded, "tabnanny").result()
+    with process_pool(1) as pool:
+        assert not pool.submit(_loaded, "tabnanny").result()

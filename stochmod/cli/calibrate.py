@@ -61,6 +61,9 @@ __all__ = [
 
 #: Simulated series per task of the figures on a pool (``--n-sim 20``: two tasks a column).
 SIMULATIONS_PER_TASK = 10
+#: What the pool's workers import as they start when they will draw figures.
+_FIGURE_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg",
+                   "stochmod.output.html_report", "stochmod.output.plots")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -262,15 +265,16 @@ def _figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
 
 
 @contextlib.contextmanager
-def _pool(executor: Any, jobs: int) -> Iterator[Any]:
+def _pool(executor: Any, jobs: int, warm: tuple[str, ...] = ()) -> Iterator[Any]:
     """`executor` when given; else one pool of `jobs` worker processes for the selection's fits
-    and the figures (1: everything in this process)."""
+    and the figures, which import the modules `warm` as they start (1: everything in this
+    process)."""
     if executor is not None:
         yield executor
     elif jobs == 1:
         yield SerialExecutor()
     else:
-        with process_pool(jobs) as pool:
+        with process_pool(jobs, warm) as pool:
             yield pool
 
 
@@ -452,7 +456,10 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
-    with single_threaded_blas(), _pool(executor, jobs) as pool:
+    # the workers draw the figures after the fits: they import matplotlib while this
+    # process reads and prepares the columns
+    warm = () if args.no_plots and not args.report else _FIGURE_MODULES
+    with single_threaded_blas(), _pool(executor, jobs, warm) as pool:
         results = select_columns(unit.segments, unit.freq, executor=pool,
                                  **selection_options(args))
         return _outputs(args, unit, results, pool, quiet)

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
-from collections.abc import Iterator
+import functools
+import importlib
+from collections.abc import Iterator, Sequence
 
 from threadpoolctl import threadpool_limits
 
@@ -26,12 +28,24 @@ def single_threaded_blas() -> Iterator[None]:
         yield
 
 
-def _limit_worker_blas() -> None:
-    """Worker initializer: one BLAS thread for the life of the worker."""
+def _limit_worker_blas(warm: Sequence[str] = ()) -> None:
+    """Worker initializer: one BLAS thread for the life of the worker, and the modules `warm`
+    imported."""
     threadpool_limits(limits=1, user_api="blas")
+    for name in warm:
+        try:
+            importlib.import_module(name)
+        except ImportError:  # an optional module: the task that needs it says so
+            pass
 
 
-def process_pool(max_workers: int) -> concurrent.futures.ProcessPoolExecutor:
-    """A pool of `max_workers` processes, each with one BLAS thread."""
-    return concurrent.futures.ProcessPoolExecutor(max_workers=max_workers,
-                                                  initializer=_limit_worker_blas)
+def process_pool(max_workers: int, warm: Sequence[str] = ()
+                 ) -> concurrent.futures.ProcessPoolExecutor:
+    """A pool of `max_workers` processes, each with one BLAS thread.
+
+    `warm` names modules each worker imports as it starts, before its first task: for
+    modules its later tasks need that this process has not imported (matplotlib for
+    figures drawn after the fits), whose import then runs while this process still
+    prepares the work instead of after it."""
+    return concurrent.futures.ProcessPoolExecutor(
+        max_workers=max_workers, initializer=functools.partial(_limit_worker_blas, tuple(warm)))
