@@ -1457,7 +1457,7 @@ class _Run:
             # v <- R(psi_hat) (v_hat - dv'_hat), dv'_hat = dv_hat - v_hat x psi_hat
             # (pyins' InsErrorModel.correct_pva); then hold P in (dv', psi) across the change
             v = np.array(mech.v)
-            rot = frames.quat_to_dcm(frames.rotvec_to_quat(dx[6:9]))
+            rot = frames.rotvec_to_dcm(dx[6:9])
             new = rot @ (v - dx[3:6] + np.cross(v, dx[6:9]))
             mech.v = (float(new[0]), float(new[1]), float(new[2]))
             self._reset(slice(3, 6), slice(3, 9), np.hstack([self._eye[:3, :3],
