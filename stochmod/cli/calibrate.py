@@ -172,6 +172,12 @@ def _draw(run_: CalibrationRun, k: int, out: Path, n_sim: int, seed: int,
     return attrs.evolve(axis, figure=png)
 
 
+def _beside(executor: Any) -> Any:
+    """`executor` when its tasks run beside this process (worker processes), else None (none
+    given, or the in-process :class:`~stochmod.workflows.fleet.SerialExecutor`)."""
+    return None if executor is None or isinstance(executor, SerialExecutor) else executor
+
+
 def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
                    executor: Any = None) -> Callable[[], list[ReportAxis | None]]:
     """Start drawing each column's figure (:func:`_draw`); the call returned waits for them
@@ -188,7 +194,7 @@ def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
 
     if importlib.util.find_spec("matplotlib") is None:
         return list
-    if n_sim > 0 or executor is None or isinstance(executor, SerialExecutor):
+    if n_sim > 0 or _beside(executor) is None:
         return functools.partial(_figures, run_, out, n_sim, seed, executor)
     from stochmod.output.html_report import axis_figure_png
     from stochmod.output.plots import save_fit_figure
@@ -238,7 +244,7 @@ def _figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
     results = list(run_.selections)
     if n_sim == 0:
         return [_draw(run_, k, out, n_sim, seed, None) for k in range(len(results))]
-    if executor is None or isinstance(executor, SerialExecutor):  # no overlap
+    if _beside(executor) is None:  # no overlap
         def call(fn: Any, *args: Any) -> Any:
             return fn(*args) if executor is None else executor.submit(fn, *args).result()
 
@@ -485,8 +491,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     drawing = list if args.no_plots else _start_figures(run_, out, args.n_sim, args.seed, pool)
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
-    drawing_pool = None if pool is None or isinstance(pool, SerialExecutor) else pool
-    overview = extras.report_overview(args, run_, noise, drawing_pool)
+    overview = extras.report_overview(args, run_, noise, _beside(pool))
     rec = run_.record
     drawn = drawing()
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
