@@ -28,7 +28,7 @@ def single_threaded_blas() -> Iterator[None]:
         yield
 
 
-def _limit_worker_blas(warm: Sequence[str] = ()) -> None:
+def _start_worker(warm: Sequence[str] = ()) -> None:
     """Worker initializer: one BLAS thread for the life of the worker, and the modules `warm`
     imported."""
     threadpool_limits(limits=1, user_api="blas")
@@ -48,4 +48,4 @@ def process_pool(max_workers: int, warm: Sequence[str] = ()
     figures drawn after the fits), whose import then runs while this process still
     prepares the work instead of after it."""
     return concurrent.futures.ProcessPoolExecutor(
-        max_workers=max_workers, initializer=functools.partial(_limit_worker_blas, tuple(warm)))
+        max_workers=max_workers, initializer=functools.partial(_start_worker, tuple(warm)))
