@@ -20,6 +20,7 @@ from stochmod.nav.logs import calibration_record, read_calibration
 from stochmod.nav.study import (
     DEFAULT_OUTAGES,
     DEFAULT_PROFILE,
+    GNSS_RATE,
     MEAN_REMOVAL,
     OutageStudy,
     outage_study,
@@ -156,7 +157,7 @@ def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profil
         last, earlier = _last_fix(start, study.outages[:k])
         for name, path in calibrations.items():
             pred = predicted_drift(path, outage=start + dur - last, motion=list(profile),
-                                   settle=last,
+                                   settle=last, gnss_rate=GNSS_RATE,
                                    speed=STUDY_SPEED, heading=STUDY_HEADING, start=STUDY_START,
                                    cep=cep, dt_filter=dt_filter, n_draws=draws,
                                    rng=[seed, k], filter_options=options, workers=workers,
@@ -174,12 +175,13 @@ def predicted_drifts(calibrations: dict[str, str], study: OutageStudy, *, profil
 
 def _last_fix(start: float, earlier: Sequence[tuple[float, float]]
               ) -> tuple[float, list[tuple[float, float]]]:
-    """The study's last 1 Hz fix before an outage starting at `start` (s from the first
-    epoch; the study withholds the fixes at ``s <= t < s + d`` of every outage) and the
-    earlier outages that end by it."""
-    last = math.ceil(start - 1e-9) - 1.0
+    """The study's last fix (at :data:`~stochmod.nav.study.GNSS_RATE`) before an outage
+    starting at `start` (s from the first epoch; the study withholds the fixes at
+    ``s <= t < s + d`` of every outage) and the earlier outages that end by it."""
+    step = 1.0 / GNSS_RATE
+    last = (math.ceil(start / step - 1e-9) - 1.0) * step
     while any(s <= last < s + d for s, d in earlier):
-        last -= 1.0
+        last -= step
     return last, [(s, d) for s, d in earlier if s + d <= last + 1e-9]
 
 

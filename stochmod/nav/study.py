@@ -51,6 +51,7 @@ from stochmod.nav.records import ImuData
 __all__ = [
     "DEFAULT_OUTAGES",
     "DEFAULT_PROFILE",
+    "GNSS_RATE",
     "MEAN_REMOVAL",
     "OutageStudy",
     "StaticErrors",
@@ -70,6 +71,8 @@ DEFAULT_PROFILE: tuple[Segment, ...] = (
     Segment(30, turn=90), Segment(45, speed=15, pitch=-2), Segment(30, pitch=0, turn=-45),
     Segment(50, speed=20), Segment(30, turn=120), Segment(45, speed=18), Segment(35, turn=-60),
 )
+#: Rate of the study's GNSS fixes, Hz (the first at the drive's first epoch).
+GNSS_RATE = 1.0
 #: Three 60 s outages while the car moves: (start s after the first epoch, duration s).
 DEFAULT_OUTAGES: tuple[tuple[float, float], ...] = ((120.0, 60.0), (300.0, 60.0), (480.0, 60.0))
 
@@ -700,7 +703,7 @@ class _Setup:
             bias = bias + rng.normal(0.0, self.start_sd)
         imu = ImuData(noisy.time, noisy.gyro + bias[:3] * h, noisy.accel + bias[3:] * h,
                       "increment")
-        gnss = gnss_measurements(traj, 1.0, cep=self.cep, sigma_v=self.sigma_v,
+        gnss = gnss_measurements(traj, GNSS_RATE, cep=self.cep, sigma_v=self.sigma_v,
                                  sigma_vel=self.sigma_vel, rng=rng)
         init = _initial_state(traj, rng)
         out = []
