@@ -14,6 +14,7 @@ from scipy import fft
 from test_wv_covariance import direct_eq17  # eq. 17 by its definition, O(N^2)
 
 from stochmod.empirical import four_step
+from stochmod.empirical.wavelet_variance import wvar
 from stochmod.empirical.wv_covariance import wv_covariance
 
 
@@ -127,3 +128,69 @@ def test_short_layouts_pad_and_split_over_blocks(short_four_step):
     assert four_step.transform_shape(777) == (28, 28)  # last block 4 of 8 columns
     assert four_step.transform_shape(913) == (27, 35)  # odd n1, last block 3 columns
     assert four_step.transform_shape(1000) == (25, 40)  # no padding, full blocks
+
+
+@pytest.mark.parametrize("shape", [(6, 20), (7, 9), (12, 40)])
+def test_threaded_transform_gives_the_serial_digits(monkeypatch, shape):
+    """The first pass's blocks in runs on a pool and the second pass on scipy's threads: the
+    same complex layout, bit for bit, as one thread (blocks of 8 columns: several runs, the
+    last one partial)."""
+    import concurrent.futures
+
+    monkeypatch.setattr(four_step, "BLOCK", 8)
+    tables = four_step.plan(*shape)
+    x = np.random.default_rng(sum(shape)).standard_normal(2 * shape[0] * shape[1])
+    serial = four_step.transform(x.astype(np.float32), tables).copy()
+    for workers in (2, 3):
+        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
+            threaded = four_step.transform(x.astype(np.float32), tables, pool, workers)
+        assert np.array_equal(threaded, serial)
+
+
+def _bfloat16_budget(n: int, group: int) -> int:
+    """SPECTRA_BYTES that makes wv_covariance hold `group` bfloat16 level spectra of an
+    n-sample signal (two rows of the slots are the landing rows of a float32 spectrum)."""
+    n1, n2 = four_step.transform_shape(n)
+    width = n1 * n2 + 1
+    return 2 * (width + width % 2) * (group + 2)
+
+
+@pytest.mark.parametrize("group", [1, 2, 5, 6])
+def test_bfloat16_spectra_are_within_their_bound_of_the_direct_sum(short_four_step, monkeypatch,
+                                                                     group):
+    """The long records' path, bfloat16 level spectra held `group` at a time (several passes,
+    one pass with the last level alone, one pass with all): within 2^-7 (two bfloat16
+    roundings of non-negative terms) of the direct double-precision eq. 17, clipped or not,
+    the same digits for every thread count, and the same to float rounding for every group."""
+    import importlib
+
+    module = importlib.import_module("stochmod.empirical.wv_covariance")
+    n, J = 913, 6
+    x = np.random.default_rng(group).standard_t(4, size=n)
+    exact = direct_eq17(x, J)
+    reference = wv_covariance(x, J, workers=1)  # float32 spectra
+    bounds = 2.0 * np.sqrt(wvar(x, 1.0, levels=J).wv)
+    clipped_reference = wv_covariance(x, J, clip=bounds, workers=1)
+    seen = []
+    original = module._bfloat16_gram
+
+    def spy(*args, **kwargs):
+        seen.append(args[4])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, "_bfloat16_gram", spy)
+    monkeypatch.setattr(module, "SPECTRA_BYTES", _bfloat16_budget(n, group))
+    V = wv_covariance(x, J, workers=1)
+    assert seen == [group]
+    assert np.max(np.abs(V / exact - 1.0)) <= 2.0**-7 + 2e-5
+    assert np.max(np.abs(V / reference - 1.0)) <= 2.0**-7 + 2e-5
+    assert not np.array_equal(V, reference)  # the path taken is not the float32 one
+    assert np.array_equal(V, V.T)
+    for workers in (2, 3):
+        assert np.array_equal(wv_covariance(x, J, workers=workers), V)
+    monkeypatch.setattr(module, "SPECTRA_BYTES", _bfloat16_budget(n, 1))
+    np.testing.assert_allclose(wv_covariance(x, J, workers=1), V, rtol=1e-12)
+    monkeypatch.setattr(module, "SPECTRA_BYTES", _bfloat16_budget(n, group))
+    clipped = wv_covariance(x, J, clip=bounds, workers=2)
+    assert np.array_equal(clipped, wv_covariance(x, J, clip=bounds, workers=1))
+    assert np.max(np.abs(clipped / clipped_reference - 1.0)) <= 2.0**-7 + 2e-5

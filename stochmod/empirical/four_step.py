@@ -27,6 +27,7 @@ least padding.
 from __future__ import annotations
 
 import bisect
+import concurrent.futures
 import functools
 import math
 from typing import NamedTuple
@@ -123,15 +124,35 @@ def power_spectrum(buf: np.ndarray, tables: Plan, out: np.ndarray) -> None:
     spectrum_jit.split_power(transform(buf, tables), tables.rows, tables.cols, out)
 
 
-def transform(buf: np.ndarray, tables: Plan) -> np.ndarray:
+def transform(buf: np.ndarray, tables: Plan,
+              pool: concurrent.futures.Executor | None = None, workers: int = 1) -> np.ndarray:
     """The four-step transform of the sample pairs of the real float32 series `buf`, in place:
-    the complex ``(n1, n2)`` view of `buf` in the layout ``C[k1, k2] = Z[k1 + n1 k2]``."""
+    the complex ``(n1, n2)`` view of `buf` in the layout ``C[k1, k2] = Z[k1 + n1 k2]``.
+
+    With `pool` (an executor of at least `workers` threads), the first pass's blocks are
+    split into `workers` runs of consecutive blocks on it, and the second pass's rows among
+    `workers` threads of scipy: the same result, bit for bit, as one thread.
+    """
     n1, n2 = tables.n1, tables.n2
     a = buf.view(np.complex64).reshape(n1, n2)
     if n1 > 1:
-        for b, s in enumerate(range(0, n2, BLOCK)):
-            block = a[:, s : s + BLOCK]
-            _in_place(fft.fft(block, axis=0, overwrite_x=True), block)
-            spectrum_jit.twiddle_block(block, b, tables.low, tables.high)
-    _in_place(fft.fft(a, axis=1, overwrite_x=True), a)
+        blocks = range(0, -(-n2 // BLOCK))
+        if pool is None or workers < 2:
+            _first_pass(a, tables, blocks)
+        else:
+            step = -(-len(blocks) // workers)
+            runs = [pool.submit(_first_pass, a, tables, blocks[i : i + step])
+                    for i in range(0, len(blocks), step)]
+            for run in runs:
+                run.result()
+    _in_place(fft.fft(a, axis=1, overwrite_x=True, workers=workers if pool is not None else 1), a)
     return a
+
+
+def _first_pass(a: np.ndarray, tables: Plan, blocks: range) -> None:
+    """The first pass of :func:`transform` on the column blocks `blocks` of `a`: each block's
+    transforms along axis 0 and its twiddle multiply, while it is in cache."""
+    for b in blocks:
+        block = a[:, b * BLOCK : (b + 1) * BLOCK]
+        _in_place(fft.fft(block, axis=0, overwrite_x=True), block)
+        spectrum_jit.twiddle_block(block, b, tables.low, tables.high)

@@ -19,9 +19,11 @@ complex one of half the length; Press et al., Numerical Recipes, 2nd ed., sec. 1
 ``(0, -k2 mod n2)`` in row 0, and writes the powers in that same order, which the Gram matrix
 of eq. 17 does not see (it sums over all frequencies); with ``n1 = 1`` it is the natural order.
 :func:`twiddle_block` is the four-step's multiply between its two passes of short transforms;
-:func:`power_gram` the Gram matrix of the levels' powers, :func:`split_power_cross` one level's
-row of it against stored levels straight from its transform, without storing its powers. One
-pass reads each pair once and writes both powers. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
+:func:`power_gram` the Gram matrix of the levels' float32 powers, :func:`bfloat16_gram` that of
+powers stored as bfloat16 (:func:`to_bfloat16`) when float32 rows would not fit in memory;
+:func:`scale_to_float32` turns a level's float64 coefficients into the float32 series of its
+transform in the same buffer. One pass of :func:`split_power` reads each pair once and writes
+both powers. The loops are compiled by :func:`stochmod.core.jit.compiled`; with
 ``STOCHMOD_DISABLE_JIT=1`` the same functions run as plain Python.
 """
 
@@ -31,7 +33,8 @@ import numpy as np
 
 from stochmod.core.jit import compiled
 
-__all__ = ["power_gram", "split_power", "split_power_cross", "twiddle_block"]
+__all__ = ["bfloat16_gram", "power_gram", "scale_to_float32", "split_power", "to_bfloat16",
+           "twiddle_block"]
 
 
 @compiled
@@ -53,21 +56,26 @@ def _pair(a: complex, b: complex, cr: float, ci: float) -> tuple[float, float]: 
 
 
 @compiled
-def split_power(c: np.ndarray, rows: np.ndarray, cols: np.ndarray,
-                out: np.ndarray) -> None:  # pragma: no cover
+def split_power(c: np.ndarray, rows: np.ndarray, cols: np.ndarray, out: np.ndarray,
+                first: int = 0, last: int = -1) -> None:  # pragma: no cover
     """Powers ``|X_k|^2`` of a real series of ``N = 2 H`` samples from ``c``, the transform of
     its sample pairs in four-step layout ``c[k1, k2] = Z[k1 + n1 k2]`` (shape ``(n1, n2)``,
     ``H = n1 n2``); ``out[k1 n2 + k2] = |X_{k1 + n1 k2}|^2`` and ``out[H]`` the Nyquist
     frequency's. `rows` and `cols` hold the (cos, sin) of ``pi k1 / H`` (``k1 < n1``) and of
     ``pi n1 k2 / H`` (``k2 < n2``), whose product is the twiddle ``w^k``. Double precision,
-    stored in `out`'s precision."""
+    stored in `out`'s precision. With `first` and `last`, only the row pairs
+    ``(k1, n1 - k1)`` with ``first <= k1 < last`` are done (row 0 and the ends for
+    ``k1 = 0``; ``last = -1``: up to ``n1 // 2``), so that disjoint ranges can run at once."""
     n1, n2 = c.shape
+    stop1 = n1 // 2 + 1 if last < 0 else last
     flat = out[: n1 * n2].reshape(n1, n2)
-    out[0], out[n1 * n2] = _pair(c[0, 0], c[0, 0], 1.0, 0.0)  # k = 0 and k = H
-    for k2 in range(1, n2 // 2 + 1):  # row 0: k2 <-> n2 - k2
-        flat[0, k2], flat[0, n2 - k2] = _pair(c[0, k2], c[0, n2 - k2], np.float64(cols[k2, 0]),
-                                              np.float64(cols[k2, 1]))
-    for k1 in range(1, n1 // 2 + 1):  # row k1 <-> row n1 - k1, reversed
+    if first == 0:
+        out[0], out[n1 * n2] = _pair(c[0, 0], c[0, 0], 1.0, 0.0)  # k = 0 and k = H
+        for k2 in range(1, n2 // 2 + 1):  # row 0: k2 <-> n2 - k2
+            flat[0, k2], flat[0, n2 - k2] = _pair(c[0, k2], c[0, n2 - k2],
+                                                  np.float64(cols[k2, 0]),
+                                                  np.float64(cols[k2, 1]))
+    for k1 in range(max(first, 1), stop1):  # row k1 <-> row n1 - k1, reversed
         q1 = n1 - k1
         rc = np.float64(rows[k1, 0])
         rs = np.float64(rows[k1, 1])
@@ -106,11 +114,40 @@ def twiddle_block(block: np.ndarray, b: int, low: np.ndarray,
 
 
 @compiled
+def _block_products(block: np.ndarray, w: int, first: int,
+                    gram: np.ndarray) -> None:  # pragma: no cover
+    """``gram[a, b] += sum_f block[a, f] block[b, f]`` over the first `w` columns of the
+    float64 `block`, for rows ``a >= first`` and ``b <= a``: each row is multiplied with four
+    others at a time, so that one load of ``block[a, f]`` serves four products."""
+    for a in range(first, block.shape[0]):
+        ra = block[a]
+        b = 0
+        while b + 4 <= a + 1:
+            r0, r1, r2, r3 = block[b], block[b + 1], block[b + 2], block[b + 3]
+            c0 = c1 = c2 = c3 = 0.0
+            for f in range(w):
+                c0 += ra[f] * r0[f]
+                c1 += ra[f] * r1[f]
+                c2 += ra[f] * r2[f]
+                c3 += ra[f] * r3[f]
+            gram[a, b] += c0
+            gram[a, b + 1] += c1
+            gram[a, b + 2] += c2
+            gram[a, b + 3] += c3
+            b += 4
+        for rest in range(b, a + 1):
+            rb = block[rest]
+            c0 = 0.0
+            for f in range(w):
+                c0 += ra[f] * rb[f]
+            gram[a, rest] += c0
+
+
+@compiled
 def power_gram(powers: np.ndarray, width: int) -> np.ndarray:  # pragma: no cover
     """``G_ab = sum_f P_a(f) P_b(f)`` over the columns of the float32 rows `powers` (J, K),
     in double precision: blocks of `width` columns are promoted once to a float64 buffer
-    (in L1 at J = 19, width = 128), and each row is multiplied with four others at a time,
-    so that one load of ``P_a(f)`` serves four products. Symmetric."""
+    (in L1 at J = 19, width = 128) and multiplied by :func:`_block_products`. Symmetric."""
     J, K = powers.shape
     gram = np.zeros((J, J))
     block = np.empty((J, width))
@@ -119,74 +156,62 @@ def power_gram(powers: np.ndarray, width: int) -> np.ndarray:  # pragma: no cove
         for a in range(J):
             for f in range(w):
                 block[a, f] = powers[a, s + f]
-        for a in range(J):
-            ra = block[a]
-            b = 0
-            while b + 4 <= a + 1:
-                r0, r1, r2, r3 = block[b], block[b + 1], block[b + 2], block[b + 3]
-                c0 = c1 = c2 = c3 = 0.0
-                for f in range(w):
-                    c0 += ra[f] * r0[f]
-                    c1 += ra[f] * r1[f]
-                    c2 += ra[f] * r2[f]
-                    c3 += ra[f] * r3[f]
-                gram[a, b] += c0
-                gram[a, b + 1] += c1
-                gram[a, b + 2] += c2
-                gram[a, b + 3] += c3
-                b += 4
-            for rest in range(b, a + 1):
-                rb = block[rest]
-                c0 = 0.0
-                for f in range(w):
-                    c0 += ra[f] * rb[f]
-                gram[a, rest] += c0
+        _block_products(block, w, 0, gram)
     for a in range(J):
         for b in range(a):
             gram[b, a] = gram[a, b]
     return gram
 
 
+@compiled
+def bfloat16_gram(rows: np.ndarray, first: int, start: int, stop: int,
+                  width: int) -> np.ndarray:  # pragma: no cover
+    """``G_ab = sum_f P_a(f) P_b(f)`` over columns ``start <= f < stop`` of the bfloat16 rows
+    `rows` (J, K) (uint16: the upper half of each float32, :func:`to_bfloat16`), for rows
+    ``a >= first`` and ``b <= a`` (the lower triangle of those rows, other entries zero): blocks
+    of `width` columns are decoded to float64 and multiplied by :func:`_block_products`, the
+    sums in double precision."""
+    J = rows.shape[0]
+    gram = np.zeros((J, J))
+    block = np.empty((J, width))
+    bits = np.empty(width, dtype=np.uint32)
+    values = bits.view(np.float32)
+    for s in range(start, stop, width):
+        w = min(width, stop - s)
+        for a in range(J):
+            for f in range(w):
+                bits[f] = np.uint32(rows[a, s + f]) << np.uint32(16)
+            for f in range(w):
+                block[a, f] = values[f]
+        _block_products(block, w, first, gram)
+    return gram
+
 
 @compiled
-def _weigh(p: float, stored: np.ndarray, i: int, acc: np.ndarray) -> None:  # pragma: no cover
-    """``acc[a] += p stored[a, i]`` for every row a, `p` first rounded to float32 (the value a
-    float32 spectrum holds)."""
-    q = np.float64(np.float32(p))
-    for a in range(stored.shape[0]):
-        acc[a] += q * np.float64(stored[a, i])
+def to_bfloat16(values: np.ndarray) -> None:  # pragma: no cover
+    """Round the float32 array `values` to bfloat16 (8 significant bits, to nearest, ties to
+    even) in place: the results, uint16 upper halves, fill the first half of its bytes
+    (``values.view(np.uint16)[:values.size]``). Forward order, so that each write lands on
+    bytes already read. Finite values only (a value within half a unit of the float32
+    maximum rounds to infinity)."""
+    bits = values.view(np.uint32)
+    out = values.view(np.uint16)
+    half = np.uint32(0x7FFF)
+    one = np.uint32(1)
+    shift = np.uint32(16)
+    for i in range(bits.size):
+        u = bits[i]
+        out[i] = np.uint16((u + half + ((u >> shift) & one)) >> shift)
 
 
 @compiled
-def split_power_cross(c: np.ndarray, rows: np.ndarray, cols: np.ndarray, stored: np.ndarray,
-                      acc: np.ndarray) -> tuple[float, float]:  # pragma: no cover
-    """:func:`split_power` of `c` multiplied with the float32 spectra `stored` (B, H + 1) in
-    the same layout without being stored: ``acc[a] += sum_i P(i) stored[a, i]``, each power
-    rounded to float32 first, in double precision. Returns the powers at ``k = 0`` and at the
-    Nyquist frequency (the ends of the half spectrum)."""
-    n1, n2 = c.shape
-    h = n1 * n2
-    first, last = _pair(c[0, 0], c[0, 0], 1.0, 0.0)
-    _weigh(first, stored, 0, acc)
-    _weigh(last, stored, h, acc)
-    for k2 in range(1, n2 // 2 + 1):
-        p, q = _pair(c[0, k2], c[0, n2 - k2], np.float64(cols[k2, 0]), np.float64(cols[k2, 1]))
-        if k2 != n2 - k2:
-            _weigh(p, stored, k2, acc)
-        _weigh(q, stored, n2 - k2, acc)
-    for k1 in range(1, n1 // 2 + 1):
-        q1 = n1 - k1
-        rc = np.float64(rows[k1, 0])
-        rs = np.float64(rows[k1, 1])
-        row, mirror = c[k1], c[q1]
-        stop = n2 if k1 < q1 else (n2 + 1) // 2
-        for k2 in range(stop):
-            cc = np.float64(cols[k2, 0])
-            cs = np.float64(cols[k2, 1])
-            p, q = _pair(row[k2], mirror[n2 - 1 - k2], rc * cc - rs * cs, rc * cs + rs * cc)
-            i, i_mirror = k1 * n2 + k2, q1 * n2 + n2 - 1 - k2
-            if i != i_mirror:
-                _weigh(p, stored, i, acc)
-            _weigh(q, stored, i_mirror, acc)
-    return np.float64(np.float32(first)), np.float64(np.float32(last))
-
+def scale_to_float32(buf: np.ndarray, m: int, factor: float) -> None:  # pragma: no cover
+    """``buf[:m] = float32(c[:m] * factor)`` with ``c = buf.view(np.float64)`` (the first
+    ``8 m`` bytes hold m float64 values), in place, then ``buf[m:] = 0``: each product is in
+    double precision and rounded once, as ``np.multiply(c, factor, out=buf)`` would give with a
+    separate `c`. Forward order: each write lands on bytes already read."""
+    c = buf.view(np.float64)
+    for i in range(m):
+        buf[i] = c[i] * factor
+    for i in range(m, buf.size):
+        buf[i] = 0.0
