@@ -110,6 +110,30 @@ def test_calibrate_exports_the_final_model_and_keeps_the_fitted_one(calibration)
     assert aug.axes == ("gyro_x", "gyro_y")
 
 
+def test_datasheet_readings_on_threads_equal_the_serial_ones(monkeypatch) -> None:
+    from stochmod.empirical.wv_covariance import THREADS_VARIABLE
+    from stochmod.output.datasheet import datasheet_reading
+
+    rec = _recording(("rad/s", "rad/s"))
+    accel = 9.8 + 1e-3 * np.random.default_rng(7).standard_normal(rec.data.shape[0])
+    rec = Recording(np.column_stack([rec.data, accel]), ("gyro_x", "gyro_y", "accel_z"), FREQ,
+                    "sim.npz", units=("rad/s", "rad/s", "m/s^2"))
+    content = {}
+    for threads in ("1", "3"):
+        monkeypatch.setenv(THREADS_VARIABLE, threads)
+        cal = stochmod.calibrate(rec, candidates=["WN"])
+        content[threads] = cal.to_json()
+    assert content["1"] == content["3"]
+    sheets = json.loads(content["3"])["datasheet"]
+    assert set(sheets) == set(rec.columns)
+    # each column's own reading (ARW in deg/sqrt(h), VRW in m/s/sqrt(h)), not a neighbour's
+    per_sqrt_hour = {"rad/s": math.degrees(1.0) * 60.0, "m/s^2": 60.0}
+    for k, column in enumerate(rec.columns):
+        reading = datasheet_reading(rec.data[:, k], FREQ, rec.units[k])
+        assert sheets[column]["summary"][0]["reading"] == pytest.approx(
+            reading.N.value * per_sqrt_hour[rec.units[k]], rel=1e-12)
+
+
 def test_calibration_round_trips_through_json(calibration, tmp_path) -> None:
     path = calibration.write(tmp_path / "calibration.json")
     content = json.loads(path.read_text())

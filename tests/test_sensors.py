@@ -12,11 +12,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stochmod.cli import main
 from stochmod.core.errors import InputError
 from stochmod.core.units import STANDARD_GRAVITY as G
 from stochmod.io.recording import read_recording
+from stochmod.io import sensors
 from stochmod.io.sensors import check_static_magnitudes, declare_units, sensor_kind
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "imudata"
@@ -87,6 +90,21 @@ def test_a_static_imu_in_si_passes_and_wrong_units_are_named() -> None:
     y[:, :3] *= 180 / np.pi
     with pytest.raises(InputError, match="look like deg/s: --gyro-unit deg/s"):
         check_static_magnitudes(y, si)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 50), k=st.integers(1, 6), offset=st.floats(-1e4, 1e4),
+       scale=st.floats(1e-6, 1e3), seed=st.integers(0, 2**16))
+def test_column_moments_over_blocks_are_numpys_mean_and_std(n, k, offset, scale, seed) -> None:
+    x = offset + scale * np.random.default_rng(seed).standard_normal((n, k + 1))
+    cols = list(range(1, k + 1))[::-1]
+    old, sensors._MOMENT_ROWS = sensors._MOMENT_ROWS, 7  # several blocks, a partial last one
+    try:
+        mean, rms = sensors._column_moments(x, cols)
+    finally:
+        sensors._MOMENT_ROWS = old
+    np.testing.assert_allclose(mean, x[:, cols].mean(axis=0), rtol=1e-12, atol=1e-12 * abs(offset))
+    np.testing.assert_allclose(rms, x[:, cols].std(axis=0), rtol=1e-7, atol=1e-9 * scale)
 
 
 def test_an_error_signal_whose_mean_was_removed_is_not_refused_for_it() -> None:

@@ -375,7 +375,8 @@ def _phase_sums(y: np.ndarray, m_all: np.ndarray, d: int, overlapping: bool, mod
     n = y.size
     c = np.empty(n + 1)
     c[0] = 0.0
-    np.cumsum(y - y.mean(), out=c[1:])  # c = phase / tau0
+    # c = phase / tau0, accumulated in place: no second array of the signal's size
+    np.cumsum(np.subtract(y, y.mean(), out=c[1:]), out=c[1:])
     out: dict[int, float] = {}
     for m in (int(v) for v in m_all):
         if not overlapping:

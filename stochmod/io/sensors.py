@@ -218,22 +218,21 @@ def check_static_magnitudes(data: np.ndarray, declared: Sequence[ColumnUnit]) ->
     """
     g = STANDARD_GRAVITY
     accel = [k for k, c in enumerate(declared) if c.kind == "accel"]
+    sensors = [k for k, c in enumerate(declared) if c.kind in ("gyro", "accel")]
+    if not sensors:
+        return
+    means, rms = np.zeros(len(declared)), np.zeros(len(declared))
+    means[sensors], rms[sensors] = _column_moments(np.asarray(data), sensors)
     for k, c in enumerate(declared):
-        if c.kind != "gyro":
-            continue
-        x = data[:, k]
-        mean, rms = abs(float(np.mean(x))), float(np.std(x))
-        if max(mean, rms) > GYRO_RATE_LIMIT:
+        if c.kind == "gyro" and max(abs(means[k]), rms[k]) > GYRO_RATE_LIMIT:
             raise InputError(
                 f"gyro column {c.column!r} (unit {c.unit}, {c.source}) has a mean rate of "
-                f"{mean:.3g} rad/s and noise of {rms:.3g} rad/s rms: a static gyro stays far "
-                f"below {GYRO_RATE_LIMIT} rad/s; the data look like deg/s: "
+                f"{abs(means[k]):.3g} rad/s and noise of {rms[k]:.3g} rad/s rms: a static gyro "
+                f"stays far below {GYRO_RATE_LIMIT} rad/s; the data look like deg/s: "
                 f"--gyro-unit deg/s (or --unit {c.column}=deg/s)")
-    if not accel:
-        return
     if len(accel) == 3:
-        norm = float(np.linalg.norm(data[:, accel].mean(axis=0)))
-        spread = float(np.max(np.std(data[:, accel], axis=0)))
+        norm = float(np.linalg.norm(means[accel]))
+        spread = float(np.max(rms[accel]))
         names = ", ".join(declared[k].column for k in accel)
         # gravity stands far above the noise in a raw record; an error signal's mean does not
         if norm > RAW_MEAN_RATIO * spread and not 0.5 * g <= norm <= 1.5 * g:
@@ -244,9 +243,28 @@ def check_static_magnitudes(data: np.ndarray, declared: Sequence[ColumnUnit]) ->
                 f"{norm:.4g} m/s^2 at rest, not g = {g} m/s^2: the data look like {likely}: "
                 f"--accel-unit {likely if likely in ('g', 'mg') else 'UNIT'}")
     for k in accel:
-        rms = float(np.std(data[:, k]))
-        if rms > g:
+        if rms[k] > g:
             raise InputError(
-                f"accelerometer column {declared[k].column!r} has noise of {rms:.3g} m/s^2 rms "
-                "at rest, above g: its unit is not the one given (--accel-unit UNIT)")
+                f"accelerometer column {declared[k].column!r} has noise of {rms[k]:.3g} m/s^2 "
+                "rms at rest, above g: its unit is not the one given (--accel-unit UNIT)")
+
+
+#: Rows per block of :func:`_column_moments` (a block of six float64 columns stays in cache).
+_MOMENT_ROWS = 1 << 15
+
+
+def _column_moments(data: np.ndarray, columns: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation (ddof 0) of the `columns` of `data` (shape (n, k)), in two
+    passes over blocks of rows: no temporary of the columns' size, which for a long record
+    would be hundreds of MB beside it."""
+    n, cols = data.shape[0], list(columns)
+    total = np.zeros(len(cols))
+    for i in range(0, n, _MOMENT_ROWS):
+        total += data[i : i + _MOMENT_ROWS, cols].sum(axis=0)
+    mean = total / n
+    squares = np.zeros(len(cols))
+    for i in range(0, n, _MOMENT_ROWS):
+        d = data[i : i + _MOMENT_ROWS, cols] - mean
+        squares += np.einsum("ij,ij->j", d, d)
+    return mean, np.sqrt(squares / n)
 

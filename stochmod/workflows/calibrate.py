@@ -13,6 +13,7 @@ after the selections).
 
 from __future__ import annotations
 
+import concurrent.futures
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -21,6 +22,7 @@ import attrs
 from stochmod.core.errors import EstimationError, InputError
 from stochmod.core.units import SENSORS, parse_unit
 from stochmod.empirical.allan_reading import AllanReading
+from stochmod.empirical.wv_covariance import default_workers
 from stochmod.fit.equivalence import FinalFit, replace_equivalents
 from stochmod.fit.selection import SelectionResult, select
 from stochmod.fit.verdict import Verdict, verdict
@@ -164,6 +166,28 @@ def _kind(rec: Recording, k: int) -> str:
     return rec.declared[k].kind if rec.declared is not None else "other"
 
 
+def _readings(rec: Recording, freq: float, units: Mapping[str, str | None],
+              given: Sequence[AllanReading | None] | None) -> dict[int, AllanReading]:
+    """The datasheet reading of each gyro and accelerometer column of `rec` (by index), those
+    not `given` made on :func:`~stochmod.empirical.wv_covariance.default_workers` threads:
+    their passes over the data release the GIL, and each holds one phase array of the
+    column's size."""
+    sensors = [k for k in range(len(rec.columns)) if _kind(rec, k) in SENSORS]
+    made = {k: given[k] for k in sensors if given is not None and given[k] is not None}
+    todo = [k for k in sensors if k not in made]
+
+    def read(k: int) -> AllanReading:
+        return datasheet_reading(rec.data[:, k], freq, units[rec.columns[k]])
+
+    workers = min(default_workers(), len(todo))
+    if workers > 1:
+        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
+            made.update(zip(todo, pool.map(read, todo)))
+    else:
+        made.update((k, read(k)) for k in todo)
+    return made
+
+
 def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[SelectionResult],
              *, dt: float | None = None, triad: bool = False, replace: bool = True,
              readings: Sequence[AllanReading | None] | None = None,
@@ -214,14 +238,10 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
     finals = [replace_equivalents(s.best, units[s.column]) if replace
               else FinalFit(s.best, s.best, ()) for s in selections]
     selections = [attrs.evolve(s, best=f.final) for s, f in zip(selections, finals)]
-    sheets = {}
-    for k, sel in enumerate(selections):
-        if _kind(rec, k) in SENSORS:
-            reading = readings[k] if readings is not None else None
-            if reading is None:
-                reading = datasheet_reading(rec.data[:, k], freq, units[sel.column])
-            sheets[sel.column] = datasheet(sel.best, units[sel.column], column=sel.column,
-                                           reading=reading)
+    made = _readings(rec, freq, units, readings)
+    sheets = {sel.column: datasheet(sel.best, units[sel.column], column=sel.column,
+                                    reading=made[k])
+              for k, sel in enumerate(selections) if k in made}
     verdicts = tuple(verdict(s.best, candidates=s.ranking) for s in selections)
     axes = []
     for k, (sel, fin, judged) in enumerate(zip(selections, finals, verdicts)):
