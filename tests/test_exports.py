@@ -207,6 +207,50 @@ def test_bound_is_the_minimax_ratio_by_brute_force():
     assert axis.max_ratio == pytest.approx(best, rel=1e-3)
 
 
+@settings(max_examples=60, deadline=None)
+@given(n2=st.floats(1e-12, 1e-6), k2=st.one_of(st.just(0.0), st.floats(1e-16, 1e-9)),
+       terms=st.lists(st.tuples(st.floats(-2.0, 4.0), st.floats(-12.0, -6.0)), min_size=1,
+                      max_size=3),
+       horizon=st.sampled_from([0.5, 10.0, 120.0, 1000.0]))
+def test_minimax_pair_is_the_linear_programs_optimum(n2, k2, terms, horizon):
+    """The two-stage linear program of the rule, solved by scipy's HiGHS on the same grid:
+    the same largest ratio, a bound at every grid point, and no larger normalised addition
+    among the pairs within the tie of that ratio."""
+    from scipy.optimize import linprog
+
+    from stochmod.output import exports
+
+    m = exports.avar_grid(FS, horizon)
+    w, r = FS / m, (2.0 * m**2 + 1) / (6 * m * FS)
+    tau = m / FS
+    rest = np.zeros(m.size)
+    for log_tc, log_s2 in terms:  # GM-shaped Allan variances (a continuous-time form)
+        x = tau / 10**log_tc
+        rest += 10**log_s2 * (2 * x - 3 + 4 * np.exp(-x) - np.exp(-2 * x)) / x**2
+    rest = np.maximum(rest, 1e-30)
+    a, b = exports._minimax(w, r, n2, k2, rest)
+    total = n2 * w + k2 * r + rest
+    ratio = ((n2 + a) * w + (k2 + b) * r) / total
+    assert a >= 0 and b >= 0 and ratio.min() >= 1 - 1e-12
+
+    sa, sb = total[0] / w[0], total[-1] / r[-1]
+    wn, rn, base = sa * w / total, sb * r / total, (n2 * w + k2 * r) / total
+    one = np.ones((m.size, 1))
+    tight = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+    first = linprog([0, 0, 1], A_ub=np.block([[-wn[:, None], -rn[:, None], 0 * one],
+                                               [wn[:, None], rn[:, None], -one]]),
+                    b_ub=np.r_[base - 1, -base], bounds=[(0, None), (0, None), (1, None)],
+                    method="highs", options=tight)
+    t = first.x[2]
+    assert t * (1 - 1e-9) <= ratio.max() <= t * (1 + 1e-6) * (1 + 1e-9)
+    second = linprog([1, 1], A_ub=np.column_stack([np.r_[-wn, wn], np.r_[-rn, rn]]),
+                     b_ub=np.r_[base - 1, t * (1 + 1e-6) - base], bounds=[(0, None), (0, None)],
+                     method="highs", options=tight)
+    if second.status == 0:  # HiGHS's pair, raised in b until feasible, is no better
+        short = max(0.0, 1.0 - float(np.min(base + second.x[0] * wn + second.x[1] * rn)))
+        assert a / sa + b / sb <= second.fun + short / rn.min() + 1e-9 * (1 + second.fun)
+
+
 def test_pure_white_noise_and_random_walk_export_their_own_n_and_k():
     for n, k in ((3e-3, 4e-5), (2e-3, 5e-4), (1e-4, 0.0)):
         procs = [_wn(n**2 * FS)] + ([_rw(k**2 / FS)] if k else [])

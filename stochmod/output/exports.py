@@ -32,7 +32,8 @@ gyroscopes).  The exported pair is the one with
    uniform over-bound), and among the pairs that reach it the smallest additions to
    ``N_model^2`` and ``K_model^2``.
 
-It is a linear program in ``(N^2, K^2)`` (:func:`scipy.optimize.linprog`), solved on every
+It is a linear program in ``(N^2, K^2)``; with two unknowns it reduces to convex problems in
+``N^2`` alone, minimised by golden sections (:func:`_minimax`). It is solved on every
 averaging factor ``m <= 128`` and 128 per octave above, up to ``m = round(H fs)``; the pair is
 then scaled up by the largest remaining shortfall at **every** m of the range, if any (the
 solver's tolerance, or a shortfall of ~1e-9 between grid points), so that (1) holds at every
@@ -73,7 +74,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -337,28 +338,66 @@ def _minimax(w: np.ndarray, r: np.ndarray, n2: float, k2: float, rest: np.ndarra
              ) -> tuple[float, float]:
     """Additions ``(a, b) >= 0`` to ``(N^2, K^2)`` that minimise ``max E / A`` subject to
     ``E >= A`` (``E = (n2 + a) w + (k2 + b) r``, ``A = n2 w + k2 r + rest``), then the
-    normalised sum ``a / sa + b / sb`` among the minimisers."""
-    from scipy.optimize import linprog
+    normalised sum ``a / sa + b / sb`` among the pairs within ``1 + _TIE`` of that minimum.
 
+    The linear program has two unknowns, so it is solved as two convex problems in the white
+    addition alone: for a given ``a`` the best ``b`` is the smallest that keeps ``E >= A``
+    (a larger one raises every ratio), which leaves the ratio's maximum, and the normalised
+    sum, convex piecewise-linear functions of ``a`` (minimised by golden sections)."""
     total = n2 * w + k2 * r + rest
+    if not np.all(np.isfinite(total)) or not np.all(total > 0):
+        raise EstimationError("the export bound needs a positive, finite Allan variance of the "
+                              "model at every averaging time of the range")
     sa, sb = float(total[0] / w[0]), float(total[-1] / r[-1])  # a = sa: white covers A at 1/fs
     wn, rn = sa * w / total, sb * r / total
     base = (n2 * w + k2 * r) / total
-    ones = np.ones_like(wn)
-    # rows: -(a' wn + b' rn) <= -(1 - base) (bound); a' wn + b' rn - t <= -base (ratio <= t)
-    A_ub = np.block([[-wn[:, None], -rn[:, None], np.zeros((wn.size, 1))],
-                     [wn[:, None], rn[:, None], -ones[:, None]]])
-    b_ub = np.r_[base - 1.0, -base]
-    first = linprog([0.0, 0.0, 1.0], A_ub=A_ub, b_ub=b_ub,
-                    bounds=[(0, None), (0, None), (1, None)], method="highs")
-    if first.status != 0:
-        raise EstimationError(f"the export bound's linear program failed: {first.message}")
-    t = float(first.x[2]) * (1.0 + _TIE)
-    second = linprog([1.0, 1.0], A_ub=np.column_stack([np.r_[-wn, wn], np.r_[-rn, rn]]),
-                     b_ub=np.r_[base - 1.0, t - base], bounds=[(0, None), (0, None)],
-                     method="highs")
-    x = second.x if second.status == 0 else first.x[:2]
-    return max(float(x[0]), 0.0) * sa, max(float(x[1]), 0.0) * sb
+    gap = 1.0 - base  # what the additions must cover, in ratio units
+
+    def walk(a: float) -> float:  # the smallest normalised b with E >= A, given a
+        return max(0.0, float(np.max((gap - a * wn) / rn)))
+
+    def peak(a: float) -> float:  # the largest ratio E / A at (a, walk(a))
+        return float(np.max(base + a * wn + walk(a) * rn))
+
+    top = float(np.min((peak(0.0) - base) / wn))  # peak(a) > peak(0) beyond it
+    a = _golden(peak, 0.0, max(top, 0.0))
+    t = peak(a) * (1.0 + _TIE)
+    low = 0.0 if peak(0.0) <= t else _crossing(peak, t, 0.0, a)
+    high = _crossing(peak, t, float(np.min((t - base) / wn)), a)
+    a = _golden(lambda x: x + walk(x), low, high)
+    return max(a, 0.0) * sa, walk(a) * sb
+
+
+def _golden(f: Callable[[float], float], lo: float, hi: float) -> float:
+    """The minimiser of the convex function `f` on ``[lo, hi]``, to a relative 1e-15."""
+    inv = (math.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = hi - inv * (hi - lo), lo + inv * (hi - lo)
+    f1, f2 = f(x1), f(x2)
+    while hi - lo > 1e-15 * max(1.0, abs(hi)):
+        if f1 <= f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - inv * (hi - lo)
+            f1 = f(x1)
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + inv * (hi - lo)
+            f2 = f(x2)
+    return lo if f(lo) <= f(hi) else hi
+
+
+def _crossing(f: Callable[[float], float], level: float, outside: float, inside: float
+              ) -> float:
+    """The end of the sublevel set ``{f <= level}`` of a convex `f` between a point `inside`
+    it and one `outside` (either side), by bisection; a point where ``f <= level``."""
+    if f(outside) <= level:
+        return outside
+    while abs(outside - inside) > 1e-15 * max(1.0, abs(inside)):
+        mid = 0.5 * (outside + inside)
+        if f(mid) <= level:
+            inside = mid
+        else:
+            outside = mid
+    return inside
 
 
 def avar_bound(model: Model, sensor: str, *, column: str = "", horizon: float | None = None,
