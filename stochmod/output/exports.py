@@ -35,8 +35,8 @@ gyroscopes).  The exported pair is the one with
 It is a linear program in ``(N^2, K^2)``; with two unknowns it reduces to convex problems in
 ``N^2`` alone, minimised by golden sections (:func:`_minimax`). It is solved on every
 averaging factor ``m <= 128`` and 128 per octave above, up to ``m = round(H fs)``; the pair is
-then scaled up by the largest remaining shortfall at **every** m of the range, if any (the
-solver's tolerance, or a shortfall of ~1e-9 between grid points), so that (1) holds at every
+then scaled up by the largest remaining shortfall at **every** m of the range, if any (a
+shortfall of ~1e-9 between grid points, or rounding), so that (1) holds at every
 averaging time ``m / fs`` a sampled record has (on the grid only beyond ``2^21`` samples).
 A model of white noise and random walk only exports its own N and K (the ratio is 1
 everywhere); every other component adds to them only as much as its Allan variance needs
@@ -483,7 +483,7 @@ def avar_bound(model: Model, sensor: str, *, column: str = "", horizon: float | 
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(total > 0, (N2 * w + K2 * r) / total, 1.0)
     short = float(np.min(ratio))
-    if short < 1.0:  # solver tolerance, or between grid points: scale up to hold at every m
+    if short < 1.0:  # rounding, or between grid points: scale up to hold at every m
         N2, K2 = N2 / short, K2 / short
         ratio = ratio / short
     lookup = dict(intervals or {})
