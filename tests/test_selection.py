@@ -90,6 +90,36 @@ def test_child_objective_never_worse_than_parent(threads):
         assert res.fits[child].objective <= res.fits[parent].objective * (1 + 1e-12), (parent, child)
 
 
+def test_a_child_searches_each_distinct_start_once(monkeypatch):
+    """A start met twice (a parent's fit that is also among the screened starts) is searched
+    once; the child's fit is the one the repeated search would give (it cannot win again)."""
+    import stochmod.fit.selection as selection
+
+    starts: list[list[np.ndarray]] = []
+    searched = selection._local_search
+
+    def local_search(task, base, nu_hat, mask):
+        starts.append([])
+        return searched(task, base, nu_hat, mask)
+
+    def refine(fun, jac, x0, *args, **kwargs):
+        starts[-1].append(np.array(x0))
+        return real_refine(fun, jac, x0, *args, **kwargs)
+
+    real_refine = selection.refine
+    monkeypatch.setattr(selection, "_local_search", local_search)
+    monkeypatch.setattr(selection, "refine", refine)
+    x = GM2.simulate(2**14, rng=5)
+    with ThreadPoolExecutor(1) as one:  # one search at a time, in this process
+        res = select(x, FREQ, families=("GM", "WN", "RW"), max_counts={"GM": 2}, executor=one)
+    assert sum(len(s) for s in starts) > len(starts) > 0
+    for searched_from in starts:
+        for i, x0 in enumerate(searched_from):
+            assert not any(np.array_equal(x0, y) for y in searched_from[:i])
+    for parent, child in res.graph.edges:
+        assert res.fits[child].objective <= res.fits[parent].objective * (1 + 1e-12)
+
+
 def test_nesting_guarantee_with_structured_and_vector_families(threads):
     """AR(1) (vector phi) and BI families in the lattice; the padded process is shrunk through
     its declared scale role (AR sigma2: variance, BI B: amplitude)."""

@@ -283,6 +283,10 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
         x = s[mask]
         if not problem.safe_objective(x) >= best_screened:
             chosen.insert(0, x)
+    # a start met twice (a parent's fit that is also a screened start) searches the same
+    # path again and cannot beat its first result: searched once
+    chosen = [x for i, x in enumerate(chosen)
+              if not any(np.array_equal(x, y) for y in chosen[:i])]
     best: dict[str, Any] | None = None
     nfev = 0
     for x0 in chosen:
