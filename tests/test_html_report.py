@@ -183,6 +183,21 @@ def test_the_axis_figure_draws_its_allan_deviation_in_datasheet_units(report):
     assert adev.get_ylabel() == "Allan deviation [ug]"
 
 
+def test_a_figure_task_sends_only_what_the_figures_draw(report):
+    pytest.importorskip("matplotlib")
+    import pickle
+
+    from stochmod.output.html_report import allan_overview_png, axis_figure_png
+
+    axes, _ = report
+    slim = [a.for_figures() for a in axes]
+    assert all(not a.selection.fits and a.selection.best is b.selection.best
+               for a, b in zip(slim, axes))
+    assert len(pickle.dumps(slim)) < 0.5 * len(pickle.dumps(axes))
+    assert axis_figure_png(slim[0]) == axis_figure_png(axes[0])
+    assert allan_overview_png(slim) == allan_overview_png(axes)
+
+
 def test_allan_units_follow_the_sensor():
     assert allan_unit("rad/s") == "deg/h"
     assert allan_unit("m/s^2", [1e-4]) == "ug"  # about 10 ug

@@ -144,7 +144,7 @@ def report_overview(args: argparse.Namespace, run_: CalibrationRun,
     axes = _report_axes(run_, noise=noise)
     if executor is None:
         return functools.partial(allan_overview_png, axes)
-    return executor.submit(allan_overview_png, axes).result
+    return executor.submit(allan_overview_png, [a.for_figures() for a in axes]).result
 
 
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],

@@ -204,7 +204,7 @@ def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
         fit, path = sel.best, out / f"{_filename(sel.column)}.png"
         if sel.column in run_.datasheets:
             axis = extras.report_axis(run_, k)
-            tasks.append((axis, path, executor.submit(axis_figure_png, axis)))
+            tasks.append((axis, path, executor.submit(axis_figure_png, axis.for_figures())))
         else:  # the worker writes the file
             unit = run_.record.unit_map().get(sel.column) or "u"
             tasks.append((None, path, executor.submit(

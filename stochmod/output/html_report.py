@@ -101,6 +101,12 @@ class ReportAxis:
     verdict: Verdict | None = None
     figure: bytes | None = None
 
+    def for_figures(self) -> ReportAxis:
+        """A copy with what :func:`axis_figure` and :func:`allan_overview` draw: the selection
+        without the fits of its other candidates (about 95 % of a pickled axis), as a figure
+        task sends it to a worker process."""
+        return attrs.evolve(self, selection=attrs.evolve(self.selection, fits={}))
+
 
 def _cell(value: Any, i: int) -> str:
     return f"<td{' class=l' if i == 0 else ''}>{html.escape(format_number(value, 5))}</td>"
