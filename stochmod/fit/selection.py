@@ -275,7 +275,7 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     pool = [s[mask] for s in task.screen]
     pool.append(problem.theta_full[mask])
     pool.extend(base.start(nu_hat, rng=gen).to_unconstrained()[mask] for _ in range(_CHILD_RANDOM))
-    values = np.array([problem.safe_objective(x) for x in pool])
+    values = problem.safe_objectives(np.array(pool))
     chosen = [pool[i] for i in np.argsort(values, kind="stable")[:_CHILD_KEEP]
               if np.isfinite(values[i])]
     best_screened = float(np.min(values)) if values.size else np.inf
