@@ -126,6 +126,42 @@ def test_report_and_figures_drawn_on_workers_equal_those_drawn_here(tmp_path, ca
         assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
 
 
+def test_matplotlib_is_imported_here_while_reading_and_done_before_the_pool_forks(
+        gm_wn_file, tmp_path, capsys, monkeypatch):
+    """With figures on a pool of forked workers, this process imports matplotlib on a thread
+    while it reads the file; the thread has ended when the pool is made (no thread may be
+    importing when a worker is forked), so the workers inherit the modules."""
+    pytest.importorskip("matplotlib")
+    import importlib
+    import threading
+
+    seen = {"on the thread": []}
+    made, import_module = calibrate_cli._pool, importlib.import_module
+
+    def pool(*args, **kwargs):
+        seen["alive"] = [t.name for t in threading.enumerate()
+                         if t.name == "stochmod-figure-imports"]
+        seen["before the pool"] = list(seen["on the thread"])
+        return made(*args, **kwargs)
+
+    def recorded(name, *args, **kwargs):
+        if threading.current_thread().name == "stochmod-figure-imports":
+            seen["on the thread"].append(name)
+        return import_module(name, *args, **kwargs)
+
+    monkeypatch.setattr(calibrate_cli, "_pool", pool)
+    monkeypatch.setattr(importlib, "import_module", recorded)
+    args = ["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--candidates", "WN",
+            "GM+WN", "--json", "--out", str(tmp_path / "out"), "--jobs", "2"]
+    run_json(args, capsys)
+    assert seen["alive"] == []
+    assert {"matplotlib.figure", "matplotlib.backends.backend_agg"} <= set(seen["before the pool"])
+    assert (tmp_path / "out" / "0.png").exists()
+    seen["on the thread"].clear()
+    run_json(args[:-1] + ["1"], capsys)  # no pool to fork: nothing imported ahead
+    assert seen["on the thread"] == []
+
+
 # ---------------------------------------------------------------- the bundled example
 def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
     report = run_json(["calibrate", "--assume-si", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",

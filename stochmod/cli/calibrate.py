@@ -9,7 +9,10 @@ import argparse
 import concurrent.futures
 import contextlib
 import functools
+import importlib
+import multiprocessing
 import re
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -61,9 +64,12 @@ __all__ = [
 
 #: Simulated series per task of the figures on a pool (``--n-sim 20``: two tasks a column).
 SIMULATIONS_PER_TASK = 10
+#: The matplotlib modules of the figures: imported by this process while it reads the file,
+#: so that the pool's workers, forked afterwards, inherit them (one import instead of one in
+#: each worker).
+_MATPLOTLIB = ("matplotlib.figure", "matplotlib.backends.backend_agg")
 #: What the pool's workers import as they start when they will draw figures.
-_FIGURE_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg",
-                   "stochmod.output.html_report", "stochmod.output.plots")
+_FIGURE_MODULES = (*_MATPLOTLIB, "stochmod.output.html_report", "stochmod.output.plots")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -271,6 +277,31 @@ def _figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
 
 
 @contextlib.contextmanager
+def _importing(modules: tuple[str, ...]) -> Iterator[None]:
+    """Import `modules` on a thread of this process while the block runs (the file is read
+    meanwhile), and wait for them at the block's end, before any pool forks: workers forked
+    afterwards inherit them instead of each importing them. A module that is not installed
+    is left to the task that needs it, which says so."""
+    if not modules:
+        yield
+        return
+
+    def load() -> None:
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except ImportError:
+                return
+
+    thread = threading.Thread(target=load, name="stochmod-figure-imports", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        thread.join()
+
+
+@contextlib.contextmanager
 def _pool(executor: Any, jobs: int, warm: tuple[str, ...] = ()) -> Iterator[Any]:
     """`executor` when given; else one pool of `jobs` worker processes for the selection's fits
     and the figures, which import the modules `warm` as they start (1: everything in this
@@ -458,13 +489,15 @@ def calibrate_file(args: argparse.Namespace, executor: Any = None, quiet: bool =
     one block per axis (or the JSON with ``--json``; nothing when `quiet`) and returns the
     calibration's JSON content. `executor` runs the selection's fits and the figures (default:
     a pool of ``args.jobs`` worker processes)."""
-    unit = read_unit(args, executor if isinstance(executor, SerialExecutor) else SerialExecutor())
     jobs = getattr(args, "jobs", 2)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"--jobs must be a positive number of worker processes, got {jobs!r}")
-    # the workers draw the figures after the fits: they import matplotlib while this
-    # process reads and prepares the columns
+    # the workers draw the figures after the fits
     warm = () if args.no_plots and not args.report else _FIGURE_MODULES
+    forking = executor is None and jobs > 1 and multiprocessing.get_start_method() == "fork"
+    with _importing(_MATPLOTLIB if warm and forking else ()):
+        unit = read_unit(args, executor if isinstance(executor, SerialExecutor)
+                         else SerialExecutor())
     with single_threaded_blas(), _pool(executor, jobs, warm) as pool:
         results = select_columns(unit.segments, unit.freq, executor=pool,
                                  **selection_options(args))
