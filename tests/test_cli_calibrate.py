@@ -162,6 +162,33 @@ def test_matplotlib_is_imported_here_while_reading_and_done_before_the_pool_fork
     assert seen["on the thread"] == []
 
 
+def test_a_failed_import_ahead_is_no_traceback_and_no_failure(gm_wn_file, tmp_path, capsys,
+                                                             monkeypatch):
+    """An import that breaks on the thread ahead of the pool leaves the figures to the
+    workers, which import matplotlib themselves: the run succeeds and prints no traceback."""
+    pytest.importorskip("matplotlib")
+    import importlib
+    import threading
+
+    import_module = importlib.import_module
+
+    def broken(name, *args, **kwargs):
+        if threading.current_thread().name == "stochmod-figure-imports":
+            raise RuntimeError("a broken font cache")
+        return import_module(name, *args, **kwargs)
+
+    uncaught = []
+    monkeypatch.setattr(importlib, "import_module", broken)
+    monkeypatch.setattr(threading, "excepthook", uncaught.append)
+    args = ["calibrate", "--assume-si", str(gm_wn_file), "--freq", "50", "--candidates", "WN",
+            "GM+WN", "--json", "--out", str(tmp_path / "out"), "--jobs", "2"]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert uncaught == [] and "Traceback" not in captured.err
+    assert json.loads(captured.out)["columns"]
+    assert (tmp_path / "out" / "0.png").exists()
+
+
 # ---------------------------------------------------------------- the bundled example
 def test_calibrate_bundled_example_two_axes(tmp_path, capsys):
     report = run_json(["calibrate", "--assume-si", "--n", "8192", "--column", "gyro_x", "--column", "accel_x",

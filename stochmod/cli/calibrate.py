@@ -281,7 +281,7 @@ def _importing(modules: tuple[str, ...]) -> Iterator[None]:
     """Import `modules` on a thread of this process while the block runs (the file is read
     meanwhile), and wait for them at the block's end, before any pool forks: workers forked
     afterwards inherit them instead of each importing them. A module that is not installed
-    is left to the task that needs it, which says so."""
+    or fails to import is left to the task that needs it, which reports the cause."""
     if not modules:
         yield
         return
@@ -290,7 +290,7 @@ def _importing(modules: tuple[str, ...]) -> Iterator[None]:
         for name in modules:
             try:
                 importlib.import_module(name)
-            except ImportError:
+            except Exception:  # noqa: BLE001 - a lost head start only, never a traceback here
                 return
 
     thread = threading.Thread(target=load, name="stochmod-figure-imports", daemon=True)
