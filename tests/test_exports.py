@@ -251,6 +251,18 @@ def test_minimax_pair_is_the_linear_programs_optimum(n2, k2, terms, horizon):
         assert a / sa + b / sb <= second.fun + short / rn.min() + 1e-9 * (1 + second.fun)
 
 
+@settings(max_examples=80, deadline=None)
+@given(top=st.integers(1, 3000), gaps=st.lists(st.integers(1, 50), min_size=1, max_size=40))
+def test_averaging_factors_with_their_doubles_are_the_sorted_union(top, gaps):
+    from stochmod.output.exports import _with_doubles
+
+    every = np.arange(1, top + 1, dtype=np.int64)  # the bound's dense grid: built directly
+    sparse = np.cumsum(np.asarray(gaps, dtype=np.int64))  # any increasing grid: sorted
+    for m in (every, sparse):
+        got = _with_doubles(m)
+        assert got.dtype == np.int64 and np.array_equal(got, np.union1d(m, 2 * m))
+
+
 def test_pure_white_noise_and_random_walk_export_their_own_n_and_k():
     for n, k in ((3e-3, 4e-5), (2e-3, 5e-4), (1e-4, 0.0)):
         procs = [_wn(n**2 * FS)] + ([_rw(k**2 / FS)] if k else [])

@@ -250,6 +250,17 @@ def _block_variances(process: Process, freq: float, n: np.ndarray) -> np.ndarray
     return n * g0 + 2.0 * (n * c0 - c1)
 
 
+def _with_doubles(m: np.ndarray) -> np.ndarray:
+    """The sorted union of the averaging factors `m` and ``2 m``, without repeats; for every m
+    from 1 to M (the bound's grid below ``_EVERY_M``) it is 1..M and the even numbers up to 2M,
+    built directly (a sort of 2M values is most of the time otherwise)."""
+    top = int(m[-1]) if m.size else 0
+    if m.size == top and m[0] == 1 and np.all(np.diff(m) == 1):
+        return np.r_[m, np.arange(top + 1 + (top + 1) % 2, 2 * top + 1, 2, dtype=np.int64)]
+    both = np.sort(np.r_[m, 2 * m])  # np.unique is slower here
+    return both[np.r_[True, both[1:] != both[:-1]]]
+
+
 def component_avar(process: Process, freq: float, m: np.ndarray, unit: str = "rad/s"
                    ) -> np.ndarray:
     """Exact Allan variance of one component at the averaging factors `m`, u^2.
@@ -279,8 +290,7 @@ def component_avar(process: Process, freq: float, m: np.ndarray, unit: str = "ra
     """
     m = np.asarray(m, dtype=np.int64)
     if process.stationary and _has_autocovariance(process, freq):
-        both = np.sort(np.r_[m, 2 * m])  # sorted, without repeats (np.unique is slow here)
-        both = both[np.r_[True, both[1:] != both[:-1]]]
+        both = _with_doubles(m)
         v = _block_variances(process, freq, both)
         vm, v2m = v[np.searchsorted(both, m)], v[np.searchsorted(both, 2 * m)]
         return (4.0 * vm - v2m) / (2.0 * m.astype(np.float64) ** 2)
