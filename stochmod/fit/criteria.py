@@ -31,7 +31,7 @@ import attrs
 import numpy as np
 
 from stochmod.core.errors import InputError
-from stochmod.fit.engine import IDENTIFIED_RTOL, full_rank, weighted_svd
+from stochmod.fit.engine import IDENTIFIED_RTOL, full_rank
 from stochmod.fit.results import GMWMResult, negligible_components
 from stochmod.plugin.hookspecs import hookimpl
 from stochmod.plugin.registry import criteria
@@ -79,13 +79,14 @@ def identified(fit: GMWMResult, tol: float = IDENTIFIED_RTOL) -> bool:
     """
     _, _, s = _weighted_svd(fit)
     n_free = int(fit.free_mask.sum())
-    return n_free > 0 and full_rank(s, n_free, tol) and not negligible_components(fit)
+    return n_free > 0 and full_rank(s, n_free, tol) and not fit.negligible
 
 
 def _weighted_svd(fit: GMWMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``L`` with ``Omega = L' L``, and the SVD ``(U, s)`` of ``L D`` with unit-norm columns
-    (:func:`stochmod.fit.engine.weighted_svd` of the model's analytic Jacobian)."""
-    return weighted_svd(fit.model.wv_jacobian(fit.levels)[:, fit.free_mask], fit.omega)
+    (:func:`stochmod.fit.engine.weighted_svd` of the model's analytic Jacobian), computed
+    once per fit (:attr:`GMWMResult.analytic_weighted_svd`)."""
+    return fit.analytic_weighted_svd
 
 
 @attrs.frozen

@@ -321,6 +321,18 @@ class GMWMResult:
         return D[:, self.free_mask]
 
     @functools.cached_property
+    def analytic_weighted_svd(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(L, U, s)`` of :func:`~stochmod.fit.engine.weighted_svd` for the model's analytic
+        WV Jacobian at the estimate (free parameters) and ``Omega``: what the criteria's
+        identification and optimism read (:mod:`stochmod.fit.criteria`)."""
+        return weighted_svd(self.model.wv_jacobian(self.levels)[:, self.free_mask], self.omega)
+
+    @functools.cached_property
+    def negligible(self) -> tuple[str, ...]:
+        """Labels of :func:`negligible_components` at its default fraction."""
+        return tuple(negligible_components(self))
+
+    @functools.cached_property
     def fitted_wv(self) -> np.ndarray:
         """The binding function at the estimate (levels 1..J), unit^2: the fitted model's
         theoretical WV, or ``phi*(theta_hat)`` for a simulated binding."""
@@ -387,7 +399,7 @@ class GMWMResult:
         None where that test is None."""
         # a component whose amplitude ran to zero sits on the boundary: its directions are
         # not fitted (the estimate could not go below zero), so they stay in the residual
-        dropped = set(negligible_components(self))
+        dropped = set(self.negligible)
         owner = np.repeat(self.model.labels, [proc.n_params for proc in self.model.processes])
         fitted = ~np.isin(owner[self.free_mask], list(dropped))
         p = int(fitted.sum())
