@@ -187,7 +187,9 @@ def test_wv_jacobian_against_mpmath_derivatives(nu_c: float, j: int) -> None:
         m = 2 ** (j - 1)
         d_fc = mp.diff(lambda x: _mp_wv_quadrature(x / FREQ, m, B), mp.mpf(fc))
         d_b = mp.diff(lambda x: _mp_wv_quadrature(nu_c, m, x), mp.mpf(B))
-        assert abs(mp.mpf(float(jac[1])) / d_fc - 1) < 1e-8
+        # d wv / d fc is a difference of two terms near 1/2 whose sum is O(nu_c): rounding
+        # grows as 1/nu_c at tiny corners (5e-8 measured at nu_c = 1e-8, 1e-14 at 1e-3)
+        assert abs(mp.mpf(float(jac[1])) / d_fc - 1) < 1e-8 + 2e-15 / nu_c
         assert abs(mp.mpf(float(jac[0])) / d_b - 1) < 1e-10
 
 

@@ -173,7 +173,12 @@ class BI(Process):
         return c * unit_wv(nu_c, levels)
 
     def wv_jacobian(self, levels: int, freq: float) -> np.ndarray:
-        """Columns ``d wv / d B = 2 wv / B`` and ``d wv / d fc`` (u^2 / Hz), shape (levels, 2)."""
+        """Columns ``d wv / d B = 2 wv / B`` and ``d wv / d fc`` (u^2 / Hz), shape (levels, 2).
+
+        At the shallow levels ``d wv / d fc`` is the difference of two terms near 1/2 whose
+        sum is of order ``d = 2 pi fc / freq`` (:func:`unit_wv_d_lo`): its relative accuracy
+        is about ``1e-16 / d`` times a small factor, 5e-8 at ``fc = 1e-8 freq`` (a corner
+        period of 10^8 samples), 1e-14 at ``fc = 1e-3 freq``."""
         levels = check_positive_int(levels, name="levels")
         c, nu_c, freq = self._scale_nu(freq)
         d_b = 2.0 * c * unit_wv(nu_c, levels) / float(self.B)
