@@ -64,7 +64,7 @@ def optimism(fit: GMWMResult, covariance: np.ndarray | None = None) -> float:
     V = fit.wv_covariance if covariance is None else np.asarray(covariance, float)
     if V.shape != (J, J):
         raise InputError(f"covariance must have shape {(J, J)}, got {V.shape}")
-    L, U, s = _weighted_svd(fit)
+    L, U, s = fit.analytic_weighted_svd
     U = U[:, : int(np.sum(s > s[0] * _RANK_TOL))] if s.size else U
     return float(max(2.0 * np.trace(U.T @ (L @ V @ L.T) @ U), 0.0))
 
@@ -77,16 +77,9 @@ def identified(fit: GMWMResult, tol: float = IDENTIFIED_RTOL) -> bool:
     time ran to infinity (only ``sigma2 beta`` is then determined) or a component of
     negligible amplitude, whose parameters and intervals mean nothing.
     """
-    _, _, s = _weighted_svd(fit)
+    _, _, s = fit.analytic_weighted_svd
     n_free = int(fit.free_mask.sum())
     return n_free > 0 and full_rank(s, n_free, tol) and not fit.negligible
-
-
-def _weighted_svd(fit: GMWMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``L`` with ``Omega = L' L``, and the SVD ``(U, s)`` of ``L D`` with unit-norm columns
-    (:func:`stochmod.fit.engine.weighted_svd` of the model's analytic Jacobian), computed
-    once per fit (:attr:`GMWMResult.analytic_weighted_svd`)."""
-    return fit.analytic_weighted_svd
 
 
 @attrs.frozen

@@ -317,15 +317,20 @@ class GMWMResult:
         shape (J, n_free): the model's analytic WV Jacobian, or the binding's."""
         if self.binding is not None:
             return self.binding.natural_jacobian(self.model, self.free_mask)
-        D = self.model.wv_jacobian(self.levels)
-        return D[:, self.free_mask]
+        return self.analytic_jacobian
+
+    @functools.cached_property
+    def analytic_jacobian(self) -> np.ndarray:
+        """The model's analytic WV Jacobian at the estimate over the free parameters, shape
+        (J, n_free) (:attr:`jacobian` without a binding)."""
+        return self.model.wv_jacobian(self.levels)[:, self.free_mask]
 
     @functools.cached_property
     def analytic_weighted_svd(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(L, U, s)`` of :func:`~stochmod.fit.engine.weighted_svd` for the model's analytic
-        WV Jacobian at the estimate (free parameters) and ``Omega``: what the criteria's
-        identification and optimism read (:mod:`stochmod.fit.criteria`)."""
-        return weighted_svd(self.model.wv_jacobian(self.levels)[:, self.free_mask], self.omega)
+        """``(L, U, s)`` of :func:`~stochmod.fit.engine.weighted_svd` for
+        :attr:`analytic_jacobian` and ``Omega``: what the criteria's identification and
+        optimism read (:mod:`stochmod.fit.criteria`)."""
+        return weighted_svd(self.analytic_jacobian, self.omega)
 
     @functools.cached_property
     def negligible(self) -> tuple[str, ...]:
