@@ -372,7 +372,7 @@ def _minimax(w: np.ndarray, r: np.ndarray, n2: float, k2: float, rest: np.ndarra
     top = float(np.min((peak(0.0) - base) / wn))  # peak(a) > peak(0) beyond it
     a = _golden(peak, 0.0, max(top, 0.0))
     t = peak(a) * (1.0 + _TIE)
-    low = 0.0 if peak(0.0) <= t else _crossing(peak, t, 0.0, a)
+    low = _crossing(peak, t, 0.0, a)
     high = _crossing(peak, t, float(np.min((t - base) / wn)), a)
     a = _golden(lambda x: x + walk(x), low, high)
     return max(a, 0.0) * sa, walk(a) * sb
