@@ -25,8 +25,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_input_arguments(p)
     p.add_argument("--model", required=True, metavar="SPEC", help='model spec, e.g. "2*GM+WN"')
     p.add_argument("--weighting", default="diagonal", metavar="NAME",
-                   help="registered weighting matrix: diagonal (default), optimal, bootstrap, "
-                        "identity, or a plugin's")
+                   help="registered weighting matrix: diagonal (default), optimal, model, "
+                        "bootstrap, identity, or a plugin's")
     p.add_argument("--levels", type=int, default=None, metavar="J",
                    help="number of wavelet levels (default: all the signal allows)")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start search (default 0)")

@@ -32,6 +32,7 @@ from stochmod.fit.weighting import (
     bootstrap_covariance,
     data_covariance,
     level_variances,
+    model_covariance,
     weighting_from_covariance,
 )
 from stochmod.plugin.hookspecs import hookimpl
@@ -49,10 +50,12 @@ __all__ = [
     "IdentityWeighting",
     "OptimalWeighting",
     "BootstrapWeighting",
+    "ModelWeighting",
     "DIAGONAL",
     "IDENTITY",
     "OPTIMAL",
     "BOOTSTRAP",
+    "MODEL",
     "get_weighting",
     "weighting_names",
     "stochmod_weightings",
@@ -208,17 +211,45 @@ class BootstrapWeighting(InverseCovarianceWeighting):
                                     rng=data.seed, wavelet=emp.wavelet, **estimator_options(emp))
 
 
+@attrs.frozen
+class ModelWeighting(Weighting):
+    """``Omega = diag(1 / V_jj)`` with V the model-based covariance of the empirical WV at a
+    first diagonal fit (:func:`~stochmod.fit.weighting.model_covariance`: the Gaussian form of
+    eq. 17 from the pilot model's PSD, times the robust estimator's variance ratios).
+
+    The diagonal weighting divides each level by its own squared empirical WV, so at deep
+    levels, with few equivalent degrees of freedom, a level that came out low by chance
+    weighs more: the estimates of a random walk or a slow Gauss-Markov term are biased low and
+    spread more than eqs. 22-23 say. Weights from the pilot model do not depend on the level's
+    own error; the estimate then has the large-sample spread of the sandwich with
+    ``Omega = diag(1 / V_jj)`` (:func:`stochmod.fit.plan.interval_half_widths`).
+    """
+
+    name: ClassVar[str] = "model"
+    description: ClassVar[str] = ("inverse model-based variances of the empirical WV at a first "
+                                  "diagonal fit")
+    needs_fit: ClassVar[bool] = True
+
+    def matrix(self, data: WeightingInput) -> WeightingMatrix:
+        """The diagonal matrix at the pilot fit."""
+        pilot, emp, J = data.require("pilot", self.name), data.empirical, data.levels
+        V = model_covariance(pilot.model, emp.n_coef[:J], emp.wavelet,
+                             variance_ratio=emp.variance_ratio[:J])
+        return WeightingMatrix(np.diag(1.0 / np.diag(V)))
+
+
 #: The first-party weightings (registered by :func:`stochmod_weightings`).
 DIAGONAL = DiagonalWeighting()
 IDENTITY = IdentityWeighting()
 OPTIMAL = OptimalWeighting()
 BOOTSTRAP = BootstrapWeighting()
+MODEL = ModelWeighting()
 
 
 @hookimpl
 def stochmod_weightings() -> list[Any]:
     """Register the first-party weightings."""
-    return [DIAGONAL, OPTIMAL, BOOTSTRAP, IDENTITY]
+    return [DIAGONAL, OPTIMAL, BOOTSTRAP, MODEL, IDENTITY]
 
 
 def weighting_names(*, shared: bool = False) -> list[str]:
