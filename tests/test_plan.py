@@ -29,6 +29,18 @@ def test_predicted_widths_match_the_simulated_spread_of_gmwm_estimates(n) -> Non
     np.testing.assert_allclose(predicted, simulated, rtol=0.2)
 
 
+@pytest.mark.parametrize("n", [2**15, 2**16, 2**17])
+def test_predicted_widths_match_the_model_weighted_spread_of_a_random_walk(n) -> None:
+    """WN(1e-4) + RW(1e-9) at 100 Hz: only the deepest levels see the RW. Fitted with the
+    weighting the plan assumes (``weighting="model"``), the spread of the log estimates over 200
+    seeded records is the planned one to 20 % for both parameters."""
+    model = stochmod.model_from_spec("WN(sigma2=1e-4) + RW(sigma2=1e-9)", FREQ)
+    predicted = np.log1p(interval_half_widths(model, n)) / Z
+    logs = np.log([stochmod.gmwm(model.simulate(n, rng=5000 + r), "WN+RW", FREQ,
+                                 weighting="model").model.vector() for r in range(200)])
+    np.testing.assert_allclose(logs.std(axis=0, ddof=1), predicted, rtol=0.2)
+
+
 def test_the_planned_record_is_the_shortest_that_reaches_the_precision() -> None:
     model = stochmod.model_from_spec(GM_WN, FREQ)
     plan = record_length(model, precision=0.15, current=2**16)

@@ -9,14 +9,18 @@ eqs. 22-23 (Stebler et al. 2014),
 with D the Jacobian of the model's Haar WV at the levels N samples give, V_N the covariance of
 the empirical WV under the model (the Gaussian form of eq. 17 from the model's PSD:
 :func:`stochmod.fit.weighting.model_covariance`, with ``M_j = N - 2^j + 1`` coefficients at
-level j), and Omega the default diagonal weighting ``diag(1 / V_jj)``. A positive parameter's
+level j), and Omega ``diag(1 / V_jj)``: the weighting ``"model"``
+(:class:`stochmod.fit.weighting_plugins.ModelWeighting`), whose weights do not depend on the
+levels' own errors. A positive parameter's
 interval is ``theta */ exp(z se / theta)`` (the delta method on the log scale, as
 :meth:`stochmod.fit.results.GMWMResult.parameters`), so its relative half-width is
 ``exp(z se / theta) - 1``. :func:`record_length` finds, per parameter, the shortest record
 whose half-width is at most the asked precision.
 
-The widths are those of the asymptotic intervals: where a component's correlation time is a
-large fraction of the record they are optimistic (docs/gmwm_monte_carlo.md).
+The widths are those of the asymptotic intervals of a fit with ``weighting="model"``. The
+default diagonal weighting divides each level by its own squared WV; for a parameter that only
+the deepest levels see (a random walk, a slow Gauss-Markov term) its estimates spread up to
+twice as much (docs/record_length.md).
 """
 
 from __future__ import annotations
@@ -150,7 +154,7 @@ class RecordPlan:
                    f"+-{100 * self.current_widths[k]:.3g} %")
             rows.append([name, float(self.values[k]), need, now])
         title = (f"record needed for each parameter's {100 * self.level:g} % interval within "
-                 f"+-{pct} (asymptotic GMWM intervals, diagonal weighting)")
+                 f"+-{pct} (asymptotic GMWM intervals, weighting='model')")
         head = ["parameter", "value", "record needed",
                 "now" if self.current is None else f"at {_duration(self.current / self.freq)}"]
         return format_table(head, rows, title=title) + (
