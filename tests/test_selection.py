@@ -436,3 +436,23 @@ def test_process_pool_workers_import_the_warm_modules_as_they_start():
         assert pool.submit(_loaded, "tabnanny").result()
     with process_pool(1) as pool:
         assert not pool.submit(_loaded, "tabnanny").result()
+
+
+def test_the_final_weighting_refits_the_selected_model_only(threads):
+    """``final_weighting="model"``: the ranking is the diagonal one; the selected WN + RW is
+    the fit ``gmwm(..., weighting="model")`` gives, with the selection's V for inference."""
+    x = model("WN(sigma2=1e-4) + RW(sigma2=1e-9)").simulate(2**16, rng=5001)
+    candidates = ["WN", "WN+RW", "GM+WN"]
+    plain = select(x, FREQ, candidates=candidates, executor=threads)
+    again = select(x, FREQ, candidates=candidates, executor=threads, final_weighting="model")
+    assert again.ranking == plain.ranking and plain.final_weighting is None
+    assert again.best.model.name == plain.best.model.name == "WN+RW"
+    assert again.final_weighting == again.best.weighting == "model"
+    direct = gmwm(x, "WN+RW", FREQ, weighting="model")
+    np.testing.assert_allclose(again.best.model.vector(), direct.model.vector(), rtol=1e-6)
+    assert not np.allclose(again.best.model.vector(), plain.best.model.vector(), rtol=1e-3, atol=0)
+    np.testing.assert_array_equal(again.best.wv_covariance, plain.wv_covariance)
+    assert "fitted again with the model weighting" in again.summary()
+    assert again.to_dict()["final_weighting"] == "model"
+    with pytest.raises(InputError, match="unknown weighting 'nope'"):
+        select(x, FREQ, candidates=["WN"], final_weighting="nope", executor=threads)

@@ -140,3 +140,26 @@ def test_calibrate_triad_gives_every_axis_of_a_sensor_the_same_structure(walk_se
     (triad,) = report["triads"]
     assert triad["structure"] == triad_select(walk_selections).structure == "WN+RW"
     assert {report["columns"][c]["name"] for c in cols} == {"WN+RW"}
+
+
+def test_calibrate_triad_with_a_final_weighting_refits_the_common_structure(tmp_path, capsys):
+    """``--triad --final-weighting model``: each axis of the chosen structure is fitted again
+    with the model weighting, as ``gmwm(..., weighting="model")`` fits it."""
+    import json
+
+    from stochmod.cli import main
+
+    truth = stochmod.model_from_spec("WN(sigma2=1e-4) + RW(sigma2=1e-8)", FS)
+    cols = {f"gyro_{a}": truth.simulate(2**12, rng=60 + i) for i, a in enumerate("xyz")}
+    path = tmp_path / "imu.npz"
+    np.savez(path, freq=FS, **cols)
+    out = tmp_path / "out"
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW",
+                 "--no-plots", "--out", str(out), "--triad", "--final-weighting", "model"]) == 0
+    capsys.readouterr()
+    report = json.loads((out / "calibration.json").read_text())
+    cal = stochmod.Calibration.read(out / "calibration.json")
+    for c, x in cols.items():
+        assert report["columns"][c]["final_weighting"] == "model"
+        direct = stochmod.gmwm(x, "WN+RW", FS, weighting="model")
+        np.testing.assert_allclose(cal.models[c].vector(), direct.model.vector(), rtol=1e-6)

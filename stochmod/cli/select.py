@@ -35,6 +35,10 @@ def add_selection_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--weighting", default="diagonal", metavar="NAME",
                    help="registered GMWM weighting shared by all candidates: diagonal (default), "
                         "optimal, identity, or a plugin's")
+    p.add_argument("--final-weighting", default=None, metavar="NAME",
+                   help="fit the selected model again with this registered weighting after "
+                        "the ranking, e.g. model: deep-level terms (random walk, slow "
+                        "Gauss-Markov) without the diagonal weighting's bias (docs/gmwm.md)")
     p.add_argument("--levels", type=int, default=None, metavar="J",
                    help="number of wavelet levels (default: all the signal allows)")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start searches (default 0)")
@@ -56,6 +60,7 @@ def selection_options(args: argparse.Namespace) -> dict[str, Any]:
         "max_counts": default_max_counts(families) | _max_counts(args.max_count),
         "criterion": args.criterion,
         "weighting": args.weighting,
+        "final_weighting": args.final_weighting,
         "levels": args.levels,
         "rng": args.seed,
         "robust": args.robust,

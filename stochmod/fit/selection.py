@@ -50,7 +50,7 @@ from stochmod.fit.weighting_plugins import WeightingInput, get_weighting, weight
 from stochmod.io.recording import Recording
 from stochmod.plugin.spec import model_from_spec
 
-__all__ = ["select", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",  # noqa: RUF022
+__all__ = ["select", "refit", "SelectionResult", "RankingRow", "candidate_lattice", "nested_graph", "model_terms",  # noqa: RUF022
            "DEFAULT_FAMILIES", "SELECTION_WEIGHTINGS"]  # noqa: F822 (read through __getattr__)
 
 
@@ -468,6 +468,9 @@ class SelectionResult:
         The empirical wavelet variance of the signal.
     wv_covariance : ndarray (J, J)
         The covariance V of the empirical WV (eq. 17) shared by all fits, unit^4.
+    final_weighting : str or None
+        The weighting :attr:`best` was fitted with again after the ranking (:func:`refit`), or
+        None: :attr:`best` is the selected candidate's fit with :attr:`weighting`.
     """
 
     column: str
@@ -479,6 +482,7 @@ class SelectionResult:
     weighting: str
     empirical: WaveletVariance
     wv_covariance: np.ndarray
+    final_weighting: str | None = None
 
     def summary(self) -> str:
         """The ranking table followed by the selected fit's report."""
@@ -490,7 +494,9 @@ class SelectionResult:
                   if self.empirical.robust else "")
         title = (f"Model selection for {self.column} ({self.criterion}, {self.weighting} weighting{robust}, "
                  f"{len(self.ranking)} candidates, N = {self.empirical.n}, "
-                 f"freq = {self.empirical.freq:g} Hz): selected {self.best.model.name}")
+                 f"freq = {self.empirical.freq:g} Hz): selected {self.best.model.name}"
+                 + (f", fitted again with the {self.final_weighting} weighting"
+                    if self.final_weighting else ""))
         table = format_table(["rank", "model", "params", "objective", "optimism", self.criterion,
                               "J-test p", "identified"], rows, title=title)
         try:
@@ -510,6 +516,7 @@ class SelectionResult:
             "column": self.column,
             "criterion": self.criterion,
             "weighting": self.weighting,
+            "final_weighting": self.final_weighting,
             "selected": self.best.model.name,
             "best": best,
             "ranking": [attrs.asdict(r) for r in self.ranking],
@@ -624,6 +631,7 @@ def select(
     names: Sequence[str] | None = None,
     robust: bool = False,
     efficiency: float = 0.6,
+    final_weighting: str | None = None,
 ) -> SelectionResult | list[SelectionResult]:
     """Select a composite model by fitting every candidate with the GMWM and ranking them.
 
@@ -672,6 +680,11 @@ def select(
         Omega and V. The diagnostic is ``result.empirical.contamination``.
     efficiency : float
         Gaussian efficiency in (0, 1] of the robust estimator (default 0.6; robust only).
+    final_weighting : str, optional
+        A registered weighting the selected model is fitted with again after the ranking
+        (:func:`refit`), e.g. ``"model"``, whose estimates of the deep-level components (a
+        random walk, a slow Gauss-Markov term) are not biased by the diagonal weights'
+        correlation with the levels' errors. The ranking stays that of the shared weighting.
 
     Returns
     -------
@@ -686,6 +699,8 @@ def select(
     if scheme.needs_fit:
         raise InputError(f"weighting {weighting!r} depends on each model's own fit and cannot be "
                          f"shared by the candidates; choose one of {weighting_names(shared=True)}")
+    if final_weighting is not None:
+        get_weighting(final_weighting)  # an unknown name fails before any fit
     crit = _criteria.get_criterion(criterion)
     seed = _base_seed(rng)
     if levels is not None:
@@ -764,7 +779,46 @@ def select(
     with single_threaded_blas():  # J x J algebra: one thread is fastest
         results = [_result(cols[k], fits[k], graph, crit, criterion, weighting, shared[k])
                    for k in range(len(cols))]
+    if final_weighting is not None:
+        results = [refit(r, final_weighting) for r in results]
     return results[0] if single else results
+
+
+def refit(sel: SelectionResult, weighting: str, best: GMWMResult | None = None
+          ) -> SelectionResult:
+    """`sel` with its selected model fitted again with `weighting`, from its estimate.
+
+    The fit (:func:`stochmod.gmwm` on the selection's empirical WV, its levels and seed) starts
+    from the selected estimate, and a weighting with ``needs_fit`` takes the selected fit's
+    model as its pilot; inference uses the selection's V (eq. 17). The ranking and the
+    candidates' fits are those of the shared weighting.
+
+    Parameters
+    ----------
+    sel : SelectionResult
+        A selection.
+    weighting : str
+        A registered weighting (``"model"``, ``"optimal"`` ...).
+    best : GMWMResult, optional
+        The fit to start from, when not ``sel.best`` (a triad's common structure).
+
+    Returns
+    -------
+    SelectionResult
+        With :attr:`~SelectionResult.best` the new fit and
+        :attr:`~SelectionResult.final_weighting` set.
+    """
+    from stochmod.fit.gmwm import gmwm
+
+    start = sel.best if best is None else best
+    name = start.model.name
+    base = sel.graph.nodes[name]["model"] if name in sel.graph else start.model.freed()
+    fit = gmwm(sel.empirical, base, weighting=weighting, levels=start.levels,
+               starts=(start.model,), rng=start.rng_seed, binding="analytic")
+    fit = fit.with_data_covariance(sel.wv_covariance).with_null_covariance()
+    if start.pooled is not None:
+        fit = attrs.evolve(fit, pooled=start.pooled)
+    return attrs.evolve(sel, best=fit, final_weighting=weighting)
 
 
 def _run_fits(pool: Any, graph: nx.DiGraph, shared: list[_Column], freq: float, weighting: str,

@@ -24,7 +24,7 @@ from stochmod.core.units import SENSORS, parse_unit
 from stochmod.empirical.allan_reading import AllanReading
 from stochmod.empirical.wv_covariance import default_workers
 from stochmod.fit.equivalence import FinalFit, replace_equivalents
-from stochmod.fit.selection import SelectionResult, select
+from stochmod.fit.selection import SelectionResult, refit, select
 from stochmod.fit.verdict import Verdict, verdict
 from stochmod.io.calibration import AxisCalibration, Calibration
 from stochmod.io.recording import Recording, column_replicates, longest_segment
@@ -156,6 +156,7 @@ def _details(sel: SelectionResult, final: FinalFit, judged: Verdict) -> dict[str
         "jtest": None if jt is None else attrs.asdict(jt),
         "criterion": sel.criterion,
         "weighting": sel.weighting,
+        "final_weighting": sel.final_weighting,
         "ranking": [attrs.asdict(r) for r in sel.ranking],
         "robust": sel.empirical.robust_info(),
         "verdict": judged.to_dict(),
@@ -233,7 +234,9 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
             choice = triad_select([by_col[c] for c in cols], sensors)
             triads.append(choice)
             for c in cols:
-                by_col[c] = attrs.evolve(by_col[c], best=choice.fits[c])
+                again = by_col[c].final_weighting
+                by_col[c] = (attrs.evolve(by_col[c], best=choice.fits[c]) if again is None
+                             else refit(by_col[c], again, best=choice.fits[c]))
         selections = [by_col[s.column] for s in selections]
     finals = [replace_equivalents(s.best, units[s.column]) if replace
               else FinalFit(s.best, s.best, ()) for s in selections]
@@ -290,7 +293,7 @@ def calibrate(recording: Recording | Sequence[Recording], *, freq: float | None 
         Runs the selection's fits.
     **selection
         Options of :func:`stochmod.select` (``criterion``, ``weighting``, ``families``,
-        ``robust``, ``rng`` ...).
+        ``robust``, ``rng``, ``final_weighting`` ...).
 
     Returns
     -------
