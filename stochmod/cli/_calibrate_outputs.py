@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import argparse
 import functools
+import json
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import attrs
 
+from stochmod.core.errors import InputError
 from stochmod.core.units import SENSORS
 from stochmod.fit.selection import SelectionResult
 from stochmod.io.calibration import Calibration
@@ -27,12 +30,17 @@ from stochmod.output.exports import (
 
 if TYPE_CHECKING:
     from stochmod.fit.validation import ValidationBands
+    from stochmod.nav.drift import DriftPrediction
     from stochmod.output.exports import AxisNoise
     from stochmod.output.html_report import ReportAxis
     from stochmod.workflows.calibrate import CalibrationRun
 
-__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "export_noise", "fleet_requested",
-           "report_axis", "report_overview", "write_exports_for", "write_report_for"]
+__all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "check_drift_request", "drift_line",
+           "export_noise", "fleet_requested", "predict_drift", "report_axis", "report_overview",
+           "write_exports_for", "write_report_for"]
+
+#: The columns ``--drift`` needs (the navigation filter's six axes, case-insensitive).
+DRIFT_AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 
 #: Help of ``--export-horizon`` (``calibrate`` and ``export``).
 EXPORT_HORIZON_HELP = (
@@ -67,6 +75,15 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--rostopic", default="/imu0", help="IMU topic in the Kalibr/OpenVINS files")
     g.add_argument("--report", action="store_true",
                    help="write OUT/report.html: figures, selection, datasheet, exports in one file")
+    g.add_argument("--drift", type=float, default=None, metavar="SECONDS",
+                   help="predict the 1-sigma horizontal drift of a loosely-coupled INS/GNSS "
+                        "filter with the final models over a GNSS outage of SECONDS at rest, "
+                        "after 300 s of fixes, with its 5-95 %% band over --drift-draws "
+                        "parameter draws (docs/drift.md): printed, written to OUT/drift.json "
+                        "and shown in the report; needs columns gyro_x ... accel_z")
+    g.add_argument("--drift-draws", type=int, default=20, metavar="N",
+                   help="parameter draws for the band of --drift (default 20; 0: the nominal "
+                        "prediction only)")
     g.add_argument("--workers", type=int, default=None, metavar="N",
                    help="calibrate the FILEs on a local dask cluster of N worker processes")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -77,6 +94,51 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
 def fleet_requested(args: argparse.Namespace) -> bool:
     """Whether the command line asks for a fleet run."""
     return bool(args.more_files) or args.workers is not None or bool(args.scheduler)
+
+
+def check_drift_request(args: argparse.Namespace, columns: Sequence[str]) -> None:
+    """Refuse, before any selection, a ``--drift`` that is not a duration or that the
+    recording's `columns` cannot serve (one each of gyro_x ... accel_z, case-insensitive)."""
+    if args.drift is None:
+        return
+    if not (math.isfinite(args.drift) and args.drift > 0):
+        raise InputError(f"--drift takes the outage's length in seconds (> 0), got {args.drift:g}")
+    if args.drift_draws < 0:
+        raise InputError(f"--drift-draws must be at least 0, got {args.drift_draws}")
+    keys = [c.strip().lower() for c in columns]
+    missing = [a for a in DRIFT_AXES if keys.count(a) != 1]
+    if missing:
+        raise InputError(f"--drift needs one column each of {', '.join(DRIFT_AXES)} "
+                         f"(case-insensitive) for the navigation filter; {', '.join(missing)} "
+                         f"missing or repeated among {list(columns)}")
+
+
+def predict_drift(args: argparse.Namespace, calibration: Calibration, out: Path
+                  ) -> tuple[DriftPrediction | None, list[Path]]:
+    """With ``--drift``: the predicted drift with `calibration`'s final models
+    (:func:`stochmod.nav.drift.predicted_drift`, at rest, ``--drift-draws`` draws seeded by
+    ``--seed``) and ``OUT/drift.json``; else None and no file."""
+    if args.drift is None:
+        return None, []
+    from stochmod.nav.drift import predicted_drift
+
+    pred = predicted_drift(calibration, outage=args.drift, n_draws=args.drift_draws,
+                           rng=args.seed)
+    path = out / "drift.json"
+    path.write_text(json.dumps(pred.to_dict(), indent=1), encoding="utf-8")
+    return pred, [path]
+
+
+def drift_line(pred: DriftPrediction) -> str:
+    """One console line: the predicted drift at the outage's end and its band."""
+    c = pred.conditions
+    band = ""
+    if pred.draws.shape[0] > pred.n_failed:
+        low, high = pred.band()
+        band = f" (5-95 % over {pred.draws.shape[0] - pred.n_failed} parameter draws: " \
+               f"{low:.4g}-{high:.4g} m)"
+    return (f"predicted drift over a {c.outage:g} s GNSS outage at rest after {c.settle:g} s "
+            f"of fixes: 1-sigma horizontal {pred.end_sigma:.4g} m{band}; docs/drift.md")
 
 
 def write_exports_for(args: argparse.Namespace, source: Calibration | list[SelectionResult],
@@ -150,13 +212,14 @@ def report_overview(args: argparse.Namespace, run_: CalibrationRun,
 def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: list[Path],
                      title: str, out: Path, drawn: Sequence[ReportAxis | None] = (),
                      noise: Sequence[AxisNoise] | None = None,
-                     overview: bytes | None = None) -> list[Path]:
+                     overview: bytes | None = None,
+                     drift: DriftPrediction | None = None) -> list[Path]:
     """``OUT/report.html`` (with ``--report``) of the calibration `run_`: the summary across
     axes first, with each axis's exported N and K when `exported` holds files (`noise`, the
     exported terms, :func:`export_noise`; computed from the final models when not given).
     `drawn`: per column, its figure drawn already (:func:`report_axis` with its PNG) or None;
     the report draws the others, and its Allan overview unless given (:func:`report_overview`
-    of the same `noise`)."""
+    of the same `noise`); `drift`: the ``--drift`` prediction (:func:`predict_drift`)."""
     if not args.report:
         return []
     from stochmod.output.html_report import write_report
@@ -166,5 +229,5 @@ def write_report_for(args: argparse.Namespace, run_: CalibrationRun, exported: l
     axes = _report_axes(run_, drawn, noise if exported else None)
     exports = {p.name: p.read_text() for p in exported}
     path = write_report(out / "report.html", axes, title=title, exports=exports,
-                        triads=run_.triads, overview=overview)
+                        triads=run_.triads, overview=overview, drift=drift)
     return [path]

@@ -338,6 +338,7 @@ def _run_pooled(args: argparse.Namespace) -> int:
     """``--pooled``: one selection per column on the replicates' pooled wavelet variance."""
     files, freq = _replicates(args)
     segments = _scaled(args, prepare([s for segs in files for s in segs]))
+    extras.check_drift_request(args, segments[0].columns)
     dt = _dt(args, freq)
     sizes = [sum(int(s.data.shape[0]) for s in segs) for segs in files]
     options = selection_options(args)
@@ -354,16 +355,19 @@ def _run_pooled(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = run_.calibration.write(out / "calibration.json")
+    drift, drift_files = extras.predict_drift(args, run_.calibration, out)
     if args.json:
         print_json(run_.calibration.to_dict())
         return 0
     print(_console(run_, args, f"{sum(sizes)} samples in {len(files)} replicates"))
+    if drift is not None:
+        print("\n" + extras.drift_line(drift))
     print(format_table(["column", "equality Q", "dof", "p-value"],
                        [[c, t["statistic"], t["dof"], t["pvalue"]] if t else [c, "-", "-", "-"]
                         for c, t in tests.items()],
                        title=f"\nreplicates {', '.join(segs[0].path for segs in files)}: do they "
                              "share one model?"))
-    print(f"\nwrote {path}")
+    print(f"\nwrote {', '.join(str(p) for p in [path, *drift_files])}")
     return 0
 
 
@@ -421,6 +425,7 @@ def _check_outputs(args: argparse.Namespace, segments: list[Recording]) -> None:
                          f"{', '.join(others)} is neither by its name or the file: name the "
                          "columns (gyro_x ... accel_z), pass --sensor, or leave them out "
                          "(--column)")
+    extras.check_drift_request(args, rec.columns)
 
 
 def read_unit(args: argparse.Namespace, executor: SerialExecutor) -> UnitInput:
@@ -525,6 +530,7 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
     overview = extras.report_overview(args, run_, noise, _beside(pool))
+    drift, drift_files = extras.predict_drift(args, cal, out)
     rec = run_.record
     drawn = drawing()
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
@@ -532,14 +538,17 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
                                     if len(segments) > 1 else "")
     title = (f"stochmod calibration of {rec.path or 'the bundled example'} "
              f"({samples} at {unit.freq:g} Hz)")
-    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise, overview())
+    figures += extras.write_report_for(args, run_, exported, title, out, drawn, noise, overview(),
+                                       drift)
     if quiet:
         return report
     if args.json:
         print_json(report)
         return report
     print(_console(run_, args, samples))
-    written = [str(path)] + [str(f) for f in exported + figures]
+    if drift is not None:
+        print("\n" + extras.drift_line(drift))
+    written = [str(path)] + [str(f) for f in exported + drift_files + figures]
     print(f"\nwrote {', '.join(written)}")
     return report
 

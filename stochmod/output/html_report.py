@@ -12,7 +12,10 @@ One file, no external resources (figures are PNGs embedded as base64), laid out 
 3. the **Allan deviations in datasheet units**, one panel per axis
    (:func:`stochmod.output.plots.allan_figure`): the data with their 95 % interval, the final
    model's curve, and the exports' bound ``N^2/tau + K^2 tau/3``;
-4. the triad tables and, per axis, the figure of the wavelet variance and the Allan deviation
+4. with ``stochmod calibrate --drift``, the **predicted drift** of a loosely-coupled INS/GNSS
+   filter with the final models over a GNSS outage, with its band from the parameters'
+   uncertainty (:func:`stochmod.nav.drift.predicted_drift`);
+5. the triad tables and, per axis, the figure of the wavelet variance and the Allan deviation
    (:func:`axis_figure`: the data with their 95 % interval inside the model's 95 % band, the
    band the verdict counts levels in), the datasheet, the parameters and the selection's
    ranking.
@@ -28,7 +31,7 @@ import html
 import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import attrs
 import numpy as np
@@ -42,8 +45,11 @@ from stochmod.fit.verdict import Verdict, model_band, verdict
 from stochmod.output.datasheet import Datasheet
 from stochmod.output.exports import AxisNoise
 
+if TYPE_CHECKING:
+    from stochmod.nav.drift import DriftPrediction
+
 __all__ = ["SHOWN_ROWS", "ReportAxis", "allan_overview", "allan_overview_png", "axis_figure",
-           "axis_figure_png", "render_report", "summary_rows", "write_report"]
+           "axis_figure_png", "drift_figure", "render_report", "summary_rows", "write_report"]
 
 #: Rows of a long table shown before the ``<details>`` that holds the rest.
 SHOWN_ROWS = 5
@@ -238,6 +244,32 @@ def axis_figure_png(axis: ReportAxis, dpi: int = 90) -> bytes:
     return _png(axis_figure(axis), dpi)
 
 
+def drift_figure(drift: DriftPrediction) -> Any:
+    """The predicted 1-sigma horizontal drift against the time since the last fix, with the
+    5-95 % band of the parameter draws (a matplotlib Figure, :meth:`DriftPrediction.plot`)."""
+    try:
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise ImportError('the report figures need matplotlib: pip install "stochmod[plots]"') from None
+    fig = Figure(figsize=(6.5, 3.8))
+    drift.plot(fig.subplots())
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.14, top=0.95)
+    return fig
+
+
+def _drift_html(drift: DriftPrediction, figures: bool) -> str:
+    low, high = drift.band()
+    c = drift.conditions
+    parts = ['<h2 id="drift">Predicted drift over a GNSS outage</h2>',
+             f'<p>After {c.settle:g} s of fixes, a {c.outage:g} s outage: predicted 1-sigma '
+             f"horizontal drift <b>{drift.end_sigma:.4g} m</b> with the calibrated models; "
+             f"{low:.4g} to {high:.4g} m (5-95 %) over the parameter draws.</p>"]
+    if figures:
+        parts.append(_img(_png(drift_figure(drift), 90), "predicted drift over the outage"))
+    parts.append(f"<pre>{html.escape(drift.summary())}</pre>")
+    return "\n".join(parts)
+
+
 # --- the summary ----------------------------------------------------------------------------
 
 def _value(v: float | None, unit: str, digits: int = 4) -> str:
@@ -388,7 +420,7 @@ def _axis_html(axis: ReportAxis, figures: bool) -> str:
 def render_report(axes: Sequence[ReportAxis], *, title: str,
                   exports: Mapping[str, str] | None = None, triads: Sequence[Any] = (),
                   extra: Sequence[str] = (), figures: bool = True,
-                  overview: bytes | None = None) -> str:
+                  overview: bytes | None = None, drift: DriftPrediction | None = None) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     body = [f"<h1>{html.escape(title)}</h1>"]
     if axes:
@@ -410,6 +442,8 @@ def render_report(axes: Sequence[ReportAxis], *, title: str,
                     + ("; dashed: the exported white noise plus random walk, "
                        "sqrt(N^2/tau + K^2 tau/3)" if any(a.noise for a in axes) else "")
                     + ".</p>")
+    if drift is not None:
+        body.append(_drift_html(drift, figures))
     toc = " | ".join(f'<a href="#{html.escape(a.column)}">{html.escape(a.column)}</a>' for a in axes)
     body.append(f"<p>Per axis: {toc}</p>")
     body += [f"<pre>{html.escape(text)}</pre>" for text in extra]
@@ -425,7 +459,7 @@ def render_report(axes: Sequence[ReportAxis], *, title: str,
 def write_report(path: str | Path, axes: Sequence[ReportAxis], *, title: str,
                  exports: Mapping[str, str] | None = None, triads: Sequence[Any] = (),
                  extra: Sequence[str] = (), figures: bool = True,
-                 overview: bytes | None = None) -> Path:
+                 overview: bytes | None = None, drift: DriftPrediction | None = None) -> Path:
     """Write the self-contained HTML report to `path`.
 
     Parameters
@@ -446,8 +480,12 @@ def write_report(path: str | Path, axes: Sequence[ReportAxis], *, title: str,
         Draw the figures (matplotlib); False gives the tables only.
     overview : bytes, optional
         The PNG of :func:`allan_overview_png` of the same `axes`, when drawn already.
+    drift : DriftPrediction, optional
+        The predicted drift over a GNSS outage (:func:`stochmod.nav.drift.predicted_drift`)
+        with the calibration's models, shown after the Allan deviations.
     """
     path = Path(path)
     path.write_text(render_report(axes, title=title, exports=exports, triads=triads, extra=extra,
-                                  figures=figures, overview=overview), encoding="utf-8")
+                                  figures=figures, overview=overview, drift=drift),
+                    encoding="utf-8")
     return path

@@ -216,3 +216,39 @@ def test_cli_drift(tmp_path, capsys) -> None:
     assert main(["drift", "--calibration", str(path), "--outage", "5", "--settle", "10",
                  "--draws", "2", "--json"]) == 0
     assert '"band"' in capsys.readouterr().out
+
+
+def test_calibrate_predicts_the_drift_into_its_console_file_and_report(tmp_path, capsys) -> None:
+    """``calibrate --drift T --report``: the console, OUT/drift.json and the report give the
+    prediction that :func:`predicted_drift` makes from the calibration file written."""
+    import json
+
+    out = tmp_path / "out"
+    assert main(["calibrate", "--n", "16384", "--candidates", "WN", "WN+RW", "--no-plots",
+                 "--report", "--drift", "20", "--drift-draws", "3", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    again = predicted_drift(out / "calibration.json", outage=20.0, n_draws=3, rng=0)
+    saved = json.loads((out / "drift.json").read_text())
+    assert saved["sigma"][-1] == pytest.approx(again.end_sigma, rel=1e-12)
+    assert saved["n_draws"] == 3 and saved["conditions"]["outage"] == 20.0
+    low, high = again.band()
+    assert (f"1-sigma horizontal {again.end_sigma:.4g} m (5-95 % over 3 parameter draws: "
+            f"{low:.4g}-{high:.4g} m)") in printed
+    page = (out / "report.html").read_text()
+    assert page.index('id="drift"') < page.index('id="gyro_x"')
+    assert f"<b>{again.end_sigma:.4g} m</b>" in page
+
+
+def test_calibrate_refuses_a_drift_it_cannot_predict_before_fitting(tmp_path, capsys) -> None:
+    path = tmp_path / "gyros.csv"
+    rng = np.random.default_rng(1)
+    np.savetxt(path, rng.normal(0.0, 1e-3, (4096, 3)), delimiter=",",
+               header="gyro_x [rad/s],gyro_y [rad/s],gyro_z [rad/s]", comments="")
+    out = tmp_path / "out"
+    assert main(["calibrate", str(path), "--freq", "100", "--no-plots", "--drift", "60",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--drift needs one column each of gyro_x" in err and "accel_x" in err
+    assert not (out / "calibration.json").exists()
+    assert main(["calibrate", "--n", "16384", "--no-plots", "--drift", "-5", "--out", str(out)]) == 2
+    assert "--drift takes the outage's length in seconds" in capsys.readouterr().err
