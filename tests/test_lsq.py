@@ -2,16 +2,20 @@
 
 Truth: the normal-equations solution of a linear least-squares problem; the known minimum
 (1, 1) of Rosenbrock's function; the projection of an unconstrained minimum onto a box; scipy's
-trf (the peer) on the same exponential-fit problems, same tolerances, same run.
+trf (the peer) on the same exponential-fit problems, same tolerances, same run; the norm of
+the damped step in 50-digit arithmetic (mpmath).
 """
 
 from __future__ import annotations
 
+import mpmath
 import numpy as np
 import pytest
+from hypothesis import assume, example, given, settings
+from hypothesis import strategies as st
 from scipy.optimize import least_squares
 
-from stochmod.fit.lsq import levenberg_marquardt
+from stochmod.fit.lsq import _damping, levenberg_marquardt
 
 TOL = {"ftol": 1e-12, "xtol": 1e-12, "gtol": 1e-12, "max_nfev": 500}
 
@@ -109,3 +113,42 @@ def test_callback_stops_the_search_and_the_budget_is_kept() -> None:
     assert seen == sorted(seen, reverse=True)  # every accepted step lowers the cost
     capped = levenberg_marquardt(fun, jac, x0, (-50.0, 50.0), **{**TOL, "max_nfev": 4})
     assert capped.status == 0 and not capped.success and capped.nfev == 4
+
+
+def _exact_norm(sur: np.ndarray, s2: np.ndarray, mu: float) -> float:
+    """||sur / (s2 + mu)|| in 50-digit arithmetic (no underflow)."""
+    with mpmath.workdps(50):
+        return float(mpmath.sqrt(mpmath.fsum((mpmath.mpf(float(a)) / (mpmath.mpf(float(b)) + mu)) ** 2
+                                             for a, b in zip(sur, s2))))
+
+
+# A region shrunk by rejected steps on the ADIS16405 accelerometer: p * p / d underflowed to
+# zero and the Newton iteration divided by it.
+ADIS_REGION = (np.array([2.0141424454304535, 1.7326056597407193, 0.98600425753618137,
+                         0.26724734564399139, 2.9164865367466670e-07]),
+               np.array([0.08564300739534325, -0.6165084115986947, -0.0108975582617495,
+                         0.6186606693671222, 0.072921083104373]),
+               4.285770979357966e-109)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.integers(1, 6), st.floats(-300.0, 2.0), st.floats(-12.0, 3.0), st.integers(0, 2**32 - 1))
+@example(1, -157.0, 0.0, 0)  # low * high overflowed
+def test_the_damping_fills_the_region_at_every_scale(n, log_radius, log_scale, seed) -> None:
+    """mu gives a step of norm within 10 % of the region's radius (checked in 50 digits), down
+    to regions of 1e-300, where the squares of the step underflow."""
+    rng = np.random.default_rng(seed)
+    s2 = 10.0 ** rng.uniform(-8.0, 1.0, n)
+    sur = rng.normal(0.0, 1.0, n) * 10.0**log_scale
+    radius = 10.0**log_radius
+    assume(np.linalg.norm(sur / s2) > radius)  # the Gauss-Newton step is longer
+    g_norm = float(np.linalg.norm(sur))
+    mu = _damping(s2, sur, radius, g_norm)
+    assert 0.0 < mu <= g_norm / radius
+    assert _exact_norm(sur, s2, mu) == pytest.approx(radius, rel=0.1)
+
+
+def test_the_damping_of_a_region_shrunk_by_rejected_steps() -> None:
+    s2, sur, radius = ADIS_REGION
+    mu = _damping(s2, sur, radius, float(np.linalg.norm(sur)))
+    assert _exact_norm(sur, s2, mu) == pytest.approx(radius, rel=0.1)

@@ -250,25 +250,48 @@ def _damping(s2: np.ndarray, sur: np.ndarray, radius: float, g_norm: float) -> f
     `s2` are the squared singular values (all positive), `sur` = ``s U'r`` and `g_norm` =
     ``||J'r||``, whose ratio to the radius bounds mu from above."""
     low, high = 0.0, g_norm / radius
-    mu = max(1e-3 * high, math.sqrt(low * high))
+    mu = max(1e-3 * high, _geometric_mean(low, high))
     for _ in range(10):
         if not low < mu < high:
-            mu = max(1e-3 * high, math.sqrt(low * high))
+            mu = max(1e-3 * high, _geometric_mean(low, high))
         d = s2 + mu
-        p = sur / d
-        norm = math.sqrt(float(p @ p))
+        norm, dnorm = _norm_and_slope(sur / d, d)
         if abs(norm - radius) <= 0.1 * radius:
             break
-        dnorm = -float((p * p) @ (1.0 / d)) / norm  # d ||p|| / d mu
         if norm < radius:
             high = mu
         else:
             low = mu
-        mu -= (norm - radius) / dnorm * norm / radius
+        # Newton's step; without a slope (underflow at the edge of the doubles) the next
+        # iterate bisects the bracket
+        mu = mu - (norm - radius) / dnorm * norm / radius if dnorm < 0.0 else -1.0
     else:  # no iterate within 10 %: the last one, kept inside the bracket
         if not low < mu < high:
-            mu = max(1e-3 * high, math.sqrt(low * high))
+            mu = max(1e-3 * high, _geometric_mean(low, high))
     return mu
+
+
+def _geometric_mean(low: float, high: float) -> float:
+    """``sqrt(low * high)``, also where the product overflows (a region near 1e-150)."""
+    product = low * high
+    return math.sqrt(product) if product < math.inf else math.sqrt(low) * math.sqrt(high)
+
+
+def _norm_and_slope(p: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+    """``||p||`` and its derivative ``-sum(p_i^2 / d_i) / ||p||`` in mu (``p = sur / d``,
+    ``d = s^2 + mu``); in units of the largest ``|p_i|`` where the squares underflow (a trust
+    region shrunk to ~1e-100 by many rejected steps), so that the derivative stays negative."""
+    norm = math.sqrt(float(p @ p))
+    if norm > 0.0:
+        slope = -float((p * p) @ (1.0 / d)) / norm
+        if slope < 0.0:
+            return norm, slope
+    c = float(np.max(np.abs(p)))
+    if not c > 0.0:
+        return 0.0, 0.0
+    u = p / c
+    un = math.sqrt(float(u @ u))
+    return c * un, -float((u * u) @ (1.0 / d)) * (c / un)
 
 
 def _column_norms(J: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
