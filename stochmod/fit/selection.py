@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
-import inspect
 import itertools
 from collections import Counter, defaultdict
 from collections.abc import Iterator, Mapping, Sequence
@@ -30,7 +29,6 @@ import attrs
 import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import optimize
 
 from stochmod.core.checks import as_signals, check_freq, check_positive_int
 from stochmod.core.errors import DomainError, EstimationError, InputError, SpecError
@@ -82,10 +80,6 @@ _CHILD_RANDOM = 2  # perturbed family guesses screened for a child
 _CHILD_KEEP = 2  # screened starts refined by a local search
 _CHILD_NFEV = 200  # evaluation budget of one local search of a child
 _CHILD_TOL = 1e-10  # its tolerances (relative change of the objective / step)
-_STALL_WINDOW, _STALL_RTOL = 5, 1e-5  # ... and its stagnation stop (see _Stagnation)
-_STALL_MESSAGE = (f"objective changed by less than {_STALL_RTOL:g} (relative) over "
-                  f"{_STALL_WINDOW} iterations")
-_HAS_CALLBACK = "callback" in inspect.signature(optimize.least_squares).parameters  # scipy >= 1.16
 
 
 # --------------------------------------------------------------------------- candidates
@@ -249,24 +243,6 @@ def _covariance(item: tuple[np.ndarray, WaveletVariance, int]) -> np.ndarray:
     return data_covariance(x, emp, J)
 
 
-class _Stagnation:
-    """least_squares callback: stop when the objective fell by less than a relative
-    ``_STALL_RTOL`` over the last ``_STALL_WINDOW`` iterations (a degenerate direction, such
-    as a GM sliding towards a random walk, otherwise uses the whole evaluation budget for
-    changes that no criterion can see). The iterate returned is the last accepted one, so the
-    objective still never exceeds the start's."""
-
-    def __init__(self) -> None:
-        self.costs: list[float] = []
-
-    def __call__(self, intermediate_result: optimize.OptimizeResult) -> None:
-        self.costs.append(float(intermediate_result.cost))
-        if len(self.costs) > _STALL_WINDOW:
-            old, new = self.costs[-_STALL_WINDOW - 1], self.costs[-1]
-            if old - new <= _STALL_RTOL * new:
-                raise StopIteration
-
-
 def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray) -> SearchResult:
     """A child's fit: local least-squares searches of eq. 20 from its screened starts."""
     problem = Problem(base.start(nu_hat), nu_hat, task.shared.omega, mask)
@@ -291,13 +267,12 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     nfev = 0
     for x0 in chosen:
         res = refine(problem.residuals, problem.jacobian, x0, _CHILD_TOL, _CHILD_NFEV,
-                     callback=_Stagnation() if _HAS_CALLBACK else None)
+                     method="lm")
         nfev += res.nfev
         value = problem.safe_objective(res.x)
         if best is None or value < best["objective"]:
-            stalled = res.status == -2  # stopped by _Stagnation: converged for every purpose
-            best = {"x": res.x, "objective": value, "converged": bool(res.success) or stalled,
-                    "message": _STALL_MESSAGE if stalled else str(res.message)}
+            best = {"x": res.x, "objective": value, "converged": bool(res.success),
+                    "message": str(res.message)}
     if best is None or not np.isfinite(best["objective"]):
         raise EstimationError(f"GMWM failed to find a finite objective for {base.name}")
     return SearchResult(model=problem.model(best["x"]), nfev=nfev + len(pool),
