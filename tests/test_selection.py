@@ -181,13 +181,13 @@ def test_default_executor_keeps_a_few_fits_in_this_process(threads, monkeypatch)
     with ProcessPoolExecutor(2) as pool:
         on_pool = select(x, FREQ, executor=pool, **kwargs)
     started: list[int] = []
+    pool_of = selection_module.process_pool
 
-    class Refused(ProcessPoolExecutor):
-        def __init__(self, max_workers: int, **options) -> None:
-            started.append(max_workers)
-            super().__init__(max_workers, **options)
+    def counted(max_workers: int, *args, **options):
+        started.append(max_workers)
+        return pool_of(max_workers, *args, **options)
 
-    monkeypatch.setattr(selection_module.concurrent.futures, "ProcessPoolExecutor", Refused)
+    monkeypatch.setattr(selection_module, "process_pool", counted)
     assert _ranking(select(x, FREQ, **kwargs)) == _ranking(on_pool) and started == []
     both = select(np.column_stack([x, x[::-1]]), FREQ, **kwargs)  # 8 fits: still here
     assert started == [] and _ranking(both[0]) == _ranking(on_pool)
@@ -436,6 +436,29 @@ def test_process_pool_workers_import_the_warm_modules_as_they_start():
         assert pool.submit(_loaded, "tabnanny").result()
     with process_pool(1) as pool:
         assert not pool.submit(_loaded, "tabnanny").result()
+
+
+def _frozen() -> int:
+    import gc
+
+    return gc.get_freeze_count()
+
+
+def test_process_pool_workers_do_not_collect_what_they_inherited():
+    """While the pool runs, this process's objects sit in the collector's permanent generation,
+    which a forked worker inherits (its collections skip them); shutdown releases them."""
+    import gc
+    import multiprocessing
+
+    from stochmod.core.parallel import process_pool
+
+    before = gc.get_freeze_count()
+    with process_pool(1) as pool:
+        assert gc.get_freeze_count() > before
+        inherited = pool.submit(_frozen).result()
+    assert gc.get_freeze_count() == 0
+    if multiprocessing.get_start_method() == "fork":
+        assert inherited > 0
 
 
 def test_the_final_weighting_refits_the_selected_model_only(threads):
