@@ -126,6 +126,33 @@ def test_report_and_figures_drawn_on_workers_equal_those_drawn_here(tmp_path, ca
         assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
 
 
+def test_the_overview_is_submitted_between_the_first_figures_and_the_others(tmp_path, capsys,
+                                                                          monkeypatch):
+    """On a pool of 2: two axis figures, then the report's Allan overview (the longest task),
+    then the other axes, so that the overview does not run last beside an idle worker."""
+    pytest.importorskip("matplotlib")
+    import concurrent.futures
+
+    order: list[str] = []
+
+    class Recording(concurrent.futures.ThreadPoolExecutor):
+        def submit(self, fn, *args, **kwargs):
+            order.append(fn.__name__)
+            return super().submit(fn, *args, **kwargs)
+
+    pool = Recording(2)  # a context manager of itself, as _pool's pools are
+    monkeypatch.setattr(calibrate_cli, "_pool", lambda executor, jobs, warm=(): pool)
+    path = tmp_path / "imu.npz"
+    x = np.column_stack([stochmod.model_from_spec("WN(sigma2=1e-4)+RW(sigma2=1e-10)", 100.0)
+                         .simulate(2**12, rng=s) for s in range(4)])
+    np.savez(path, gyro_x=x[:, 0], gyro_y=x[:, 1], accel_x=x[:, 2], accel_y=x[:, 3], freq=100.0)
+    assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "WN+RW", "--report",
+                 "--out", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    drawn = [name for name in order if name in ("axis_figure_png", "allan_overview_png")]
+    assert drawn == ["axis_figure_png"] * 2 + ["allan_overview_png"] + ["axis_figure_png"] * 2
+
+
 def test_matplotlib_is_imported_here_while_reading_and_done_before_the_pool_forks(
         gm_wn_file, tmp_path, capsys, monkeypatch):
     """With figures on a pool of forked workers, this process imports matplotlib on a thread

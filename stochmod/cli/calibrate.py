@@ -185,16 +185,17 @@ def _beside(executor: Any) -> Any:
 
 
 def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
-                   executor: Any = None) -> Callable[[], list[ReportAxis | None]]:
+                   executor: Any = None, first: int = 2) -> Callable[[], list[ReportAxis | None]]:
     """Start drawing each column's figure (:func:`_draw`); the call returned waits for them
     and gives what :func:`_figures` gives.
 
-    Without simulations and on a pool of worker processes, every figure goes to the workers
-    at once (the selection has left them idle), and this process solves the exports' bounds
-    meanwhile (the report's Allan overview, which shows them, follows on the workers:
-    :func:`~stochmod.cli._calibrate_outputs.report_overview`); otherwise the figures are
-    drawn when the returned call is made (:func:`_figures`). The figures are the same either
-    way.
+    Without simulations and on a pool of worker processes, the first `first` figures (one a
+    worker) go to the workers at once (the selection has left them idle), and this process
+    solves the exports' bounds meanwhile; the report's Allan overview, which shows them
+    (:func:`~stochmod.cli._calibrate_outputs.report_overview`), is submitted next, and the
+    other figures when the returned call is made, so that the overview, the longest task,
+    does not run last beside an idle worker. Otherwise the figures are drawn when the
+    returned call is made (:func:`_figures`). The figures are the same either way.
     """
     import importlib.util
 
@@ -205,19 +206,20 @@ def _start_figures(run_: CalibrationRun, out: Path, n_sim: int, seed: int,
     from stochmod.output.html_report import axis_figure_png
     from stochmod.output.plots import save_fit_figure
 
-    tasks: list[tuple[ReportAxis | None, Path, concurrent.futures.Future]] = []
-    for k, sel in enumerate(run_.selections):
+    def submit(k: int) -> tuple[ReportAxis | None, Path, concurrent.futures.Future]:
+        sel = run_.selections[k]
         fit, path = sel.best, out / f"{_filename(sel.column)}.png"
         if sel.column in run_.datasheets:
             axis = extras.report_axis(run_, k)
-            tasks.append((axis, path, executor.submit(axis_figure_png, axis.for_figures())))
-        else:  # the worker writes the file
-            unit = run_.record.unit_map().get(sel.column) or "u"
-            tasks.append((None, path, executor.submit(
-                save_fit_figure, fit, path, n_sim=0, rng=seed,
-                title=f"{sel.column}: {fit.model.name}", unit=unit)))
+            return axis, path, executor.submit(axis_figure_png, axis.for_figures())
+        unit = run_.record.unit_map().get(sel.column) or "u"  # the worker writes the file
+        return None, path, executor.submit(save_fit_figure, fit, path, n_sim=0, rng=seed,
+                                           title=f"{sel.column}: {fit.model.name}", unit=unit)
+
+    tasks = [submit(k) for k in range(min(first, len(run_.selections)))]
 
     def drawn() -> list[ReportAxis | None]:
+        tasks.extend(submit(k) for k in range(len(tasks), len(run_.selections)))
         axes: list[ReportAxis | None] = []
         for axis, path, future in tasks:
             png = future.result()
@@ -526,7 +528,8 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     path = cal.write(out / "calibration.json")
     report = cal.to_dict()
     sensors = {a.column: a.unit for a in cal.axes if a.kind in SENSORS}
-    drawing = list if args.no_plots else _start_figures(run_, out, args.n_sim, args.seed, pool)
+    drawing = list if args.no_plots else _start_figures(run_, out, args.n_sim, args.seed, pool,
+                                                        first=getattr(args, "jobs", 2))
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
     overview = extras.report_overview(args, run_, noise, _beside(pool))
