@@ -195,7 +195,10 @@ def haar_level_coefficients(v: np.ndarray, n_valid: int, step: int, factor: floa
     return acc
 
 
-@compiled
+# without reassoc: with it LLVM vectorised the sums behind run-time checks on the buffers'
+# addresses, so their last bits, and the robust WV's, followed the heap (about 1 call in
+# 100); the sums in order are reproducible, and on this loop no slower
+@compiled(fastmath=frozenset())
 def haar_level_power_sums(src: np.ndarray, dst: np.ndarray, n_valid: int, step: int,
                           factor: float, core: float, sums: np.ndarray, big_idx: np.ndarray,
                           big_w: np.ndarray, sub_stride: int, left: np.ndarray,
