@@ -245,6 +245,21 @@ def test_calibrate_errors_are_one_line(gm_wn_file, tmp_path, capsys):
     assert "--dt" in capsys.readouterr().err
 
 
+def test_a_short_bundled_example_is_an_error_signal_the_checks_accept(tmp_path, capsys):
+    """The slowest accelerometer GM (0.042 g stationary, Tc 72 min) is a constant over 41 s;
+    the example's columns are less their means, so the magnitude check does not read that
+    bias as gravity in g, and the wavelet variance is that of the uncentred simulation."""
+    rec = xsens_mtig(n=4096)
+    assert np.all(np.abs(rec.data.mean(axis=0)) < 1e-12 * rec.data.std(axis=0))
+    models = xsens_mtig_models()
+    raw = models["accel_x"].simulate(4096, np.random.default_rng(0))
+    np.testing.assert_allclose(stochmod.wvar(raw - raw.mean(), 100.0).wv,
+                               stochmod.wvar(raw, 100.0).wv, rtol=1e-9)
+    assert main(["calibrate", "--n", "4096", "--candidates", "WN", "GM+WN", "--no-plots",
+                 "--out", str(tmp_path)]) == 0
+    assert "accel_x (accel, m/s^2)" in capsys.readouterr().out
+
+
 def test_example_columns_units_and_reproducibility():
     rec = xsens_mtig(n=4096, seed=3)
     assert rec.columns == XSENS_COLUMNS and rec.freq == 100.0 and rec.data.shape == (4096, 6)

@@ -241,7 +241,9 @@ def check_static_magnitudes(data: np.ndarray, declared: Sequence[ColumnUnit]) ->
             raise InputError(
                 f"the accelerometer triad ({names}) measures a mean specific force of "
                 f"{norm:.4g} m/s^2 at rest, not g = {g} m/s^2: the data look like {likely}: "
-                f"--accel-unit {likely if likely in ('g', 'mg') else 'UNIT'}")
+                f"--accel-unit {likely if likely in ('g', 'mg') else 'UNIT'} (or, for an error "
+                f"signal whose bias stands {norm / spread:.3g} times above its noise, remove its "
+                "mean first)")
     for k in accel:
         if rms[k] > g:
             raise InputError(
