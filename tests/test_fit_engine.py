@@ -157,13 +157,22 @@ def test_selection_carries_the_model_covariance_computed_in_the_worker(signal, m
     expected = stochmod.fit.weighting.model_covariance(fit.model, fit.empirical.n_coef, "haar")
     np.testing.assert_allclose(fit.null_covariance, expected, rtol=1e-12)
     jtest = fit.jtest
+    plain = stochmod.gmwm(signal, "GM+WN", FREQ)
+    assert plain.null_covariance is None and plain.jtest_form is not None
 
     def fail(*args, **kwargs):
         raise AssertionError("the model covariance was computed again")
 
     monkeypatch.setattr(results_module, "model_covariance", fail)
-    fresh = fit.with_data_covariance(fit.covariance)  # a copy: nothing cached, fields kept
+    fresh = fit.with_data_covariance(fit.covariance)  # a copy: fields kept
     assert fresh.null_covariance is fit.null_covariance and fresh.jtest == jtest
+    # the worker's J-test and SVD travel with the fit; what reads the data's V is computed again
+    assert fresh.jtest_form is fit.jtest_form and fresh.analytic_weighted_svd is fit.analytic_weighted_svd
+    other = fit.with_data_covariance(2.0 * fit.covariance)
+    assert other.asymptotic_jtest is fit.asymptotic_jtest
+    np.testing.assert_allclose(other.std_errors, np.sqrt(2.0) * fit.std_errors, rtol=1e-10)
+    # without the model's covariance given, nothing is carried
+    assert "jtest_form" not in vars(plain.with_data_covariance(2.0 * fit.covariance))
 
 
 def test_results_compose_and_never_override_cached_properties() -> None:

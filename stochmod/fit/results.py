@@ -88,6 +88,13 @@ class Resampling(Protocol):
         """One line for :meth:`GMWMResult.summary`: which results are resampled, and how."""
 
 
+#: Cached properties of :class:`GMWMResult` that do not read the data's WV covariance V once
+#: :attr:`GMWMResult.null_covariance` is given (:meth:`GMWMResult.with_data_covariance`).
+_WITHOUT_DATA_COVARIANCE = ("binding_covariance", "null_wv_covariance", "jacobian",
+                            "analytic_jacobian", "analytic_weighted_svd", "negligible",
+                            "fitted_wv", "jtest_form", "asymptotic_jtest")
+
+
 @attrs.frozen
 class JTest:
     """Goodness-of-fit J-test of eq. 27: statistic ~ chi2(df) under the model."""
@@ -302,8 +309,14 @@ class GMWMResult:
 
     def with_data_covariance(self, covariance: np.ndarray) -> GMWMResult:
         """This fit with the data's WV covariance V supplied (a selection computes V once per
-        signal, alongside the fits); :attr:`null_covariance` is kept."""
-        return attrs.evolve(self, covariance=covariance)
+        signal, alongside the fits); :attr:`null_covariance` is kept, and with it what this
+        fit has computed already that does not read V (:data:`_WITHOUT_DATA_COVARIANCE`: the
+        Jacobians, the weighted SVD, the J-test under the model)."""
+        fit = attrs.evolve(self, covariance=covariance)
+        if self.null_covariance is not None:  # then the J-test's V is not the data's
+            known = vars(self)
+            vars(fit).update({k: known[k] for k in _WITHOUT_DATA_COVARIANCE if k in known})
+        return fit
 
     def with_null_covariance(self) -> GMWMResult:
         """This fit carrying its model-based covariance, computed now

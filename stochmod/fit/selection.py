@@ -293,7 +293,12 @@ def _fit_task(task: _Task) -> GMWMResult:
     result = GMWMResult.from_search(
         found, empirical=emp, omega=task.shared.omega, weighting=task.weighting, levels=J,
         mask=mask, covariance=task.shared.covariance, rng_seed=task.seed)
-    return result.with_null_covariance()  # the J-test's V, in the worker (travels with it)
+    # the J-test's V, the J-test itself and the ranking's SVD, in the worker: they travel
+    # with the fit and outlive the data's V that joins it (GMWMResult.with_data_covariance)
+    result = result.with_null_covariance()
+    for cached in ("asymptotic_jtest", "analytic_weighted_svd", "negligible"):
+        getattr(result, cached)
+    return result
 
 
 def _negligible(proc: Process, nu_hat: np.ndarray, freq: float) -> Process | None:
