@@ -80,5 +80,9 @@ def test_plan_command_reads_a_calibration(tmp_path, capsys) -> None:
     assert main(["plan", "--calibration", str(path), "--precision", "20"]) == 0
     out = capsys.readouterr().out
     assert "gyro_x: WN+RW" in out and "RW.sigma2" in out and "at 2.73 min" in out
+    assert "fitted with the diagonal weighting" in out  # the plan is for the model weighting
+    again = stochmod.calibrate(rec, candidates=["WN", "WN+RW"], final_weighting="model")
+    assert main(["plan", "--calibration", str(again.write(tmp_path / "model.json"))]) == 0
+    assert "fitted with the" not in capsys.readouterr().out
     assert main(["plan", "--model", "WN(sigma2=1e-4)"]) == 2  # no --freq
     assert "--model needs --freq" in capsys.readouterr().err

@@ -48,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
         columns = args.column or list(cal.columns)
         models = {c: cal.axis(c).model for c in columns}
         current = max(cal.record_sizes or (cal.n,))
+        details = {c: cal.axis(c).details for c in columns}
+        fitted = {c: d.get("final_weighting") or d.get("weighting") for c, d in details.items()}
     else:
         if args.freq is None:
             raise InputError("--model needs --freq HZ")
@@ -55,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--column applies to --calibration")
         models = {"model": model_from_spec(args.model, args.freq)}
         current = None
+        fitted = {}
     plans = {c: record_length(m, precision=args.precision / 100.0, level=args.level,
                               current=current) for c, m in models.items()}
     if args.json:
@@ -65,5 +68,10 @@ def run(args: argparse.Namespace) -> int:
     for column, plan in plans.items():
         print(f"{column}: {models[column].name}")
         print(plan.summary())
+        if fitted.get(column) not in (None, "model"):
+            print(f"(this axis was fitted with the {fitted[column]} weighting: its random walk "
+                  "and slow Gauss-Markov terms spread up to twice the widths above, "
+                  "docs/record_length.md; calibrate with --final-weighting model for the "
+                  "planned ones)")
         print()
     return 0
