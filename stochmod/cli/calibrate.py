@@ -533,9 +533,13 @@ def _outputs(args: argparse.Namespace, unit: UnitInput, results: list[SelectionR
     noise = extras.export_noise(args, cal)  # the files' terms, shown again by the report
     exported = extras.write_exports_for(args, cal, sensors, out, noise)
     overview = extras.report_overview(args, run_, noise, _beside(pool))
-    drift, drift_files = extras.predict_drift(args, cal, out)
+    # the drift runs on a thread of this process while the last figures are submitted and
+    # drawn (its filter's loops release the GIL; the workers are not kept waiting for it)
+    with concurrent.futures.ThreadPoolExecutor(1) as side:
+        predicting = side.submit(extras.predict_drift, args, cal, out)
+        drawn = drawing()
+        drift, drift_files = predicting.result()
     rec = run_.record
-    drawn = drawing()
     figures = [out / f"{_filename(s.column)}.png" for s in run_.selections[:len(drawn)]]
     samples = f"{cal.n} samples" + (f" in {len(segments)} gap-free segments"
                                     if len(segments) > 1 else "")
