@@ -463,7 +463,9 @@ def test_process_pool_workers_do_not_collect_what_they_inherited():
 
 def test_the_final_weighting_refits_the_selected_model_only(threads):
     """``final_weighting="model"``: the ranking is the diagonal one; the selected WN + RW is
-    the fit ``gmwm(..., weighting="model")`` gives, with the selection's V for inference."""
+    the fit ``gmwm(..., weighting="model")`` gives, its intervals from the fitted model's V as
+    that weighting declares; with "identity" they keep the selection's V. A weighting that
+    needs the signal is refused (the refit has the WV only)."""
     x = model("WN(sigma2=1e-4) + RW(sigma2=1e-9)").simulate(2**16, rng=5001)
     candidates = ["WN", "WN+RW", "GM+WN"]
     plain = select(x, FREQ, candidates=candidates, executor=threads)
@@ -474,7 +476,12 @@ def test_the_final_weighting_refits_the_selected_model_only(threads):
     direct = gmwm(x, "WN+RW", FREQ, weighting="model")
     np.testing.assert_allclose(again.best.model.vector(), direct.model.vector(), rtol=1e-6)
     assert not np.allclose(again.best.model.vector(), plain.best.model.vector(), rtol=1e-3, atol=0)
-    np.testing.assert_array_equal(again.best.wv_covariance, plain.wv_covariance)
+    np.testing.assert_array_equal(again.best.wv_covariance, again.best.model_based_covariance())
+    np.testing.assert_allclose(again.best.std_errors, direct.std_errors, rtol=1e-5)
+    ols = select(x, FREQ, candidates=candidates, executor=threads, final_weighting="identity")
+    np.testing.assert_array_equal(ols.best.wv_covariance, plain.wv_covariance)
+    with pytest.raises(InputError, match="final_weighting 'optimal' needs the signal"):
+        select(x, FREQ, candidates=["WN"], final_weighting="optimal", executor=threads)
     assert "fitted again with the model weighting" in again.summary()
     assert again.to_dict()["final_weighting"] == "model"
     with pytest.raises(InputError, match="unknown weighting 'nope'"):

@@ -150,6 +150,22 @@ def test_the_model_weighting_removes_the_random_walks_bias_of_the_diagonal_weigh
     assert spread["model"] < 0.7 * spread["diagonal"]
 
 
+def test_the_model_weightings_intervals_cover_a_random_walk() -> None:
+    """WN(1e-4) + RW(1e-9) at 100 Hz, 2^15 samples, 300 seeded records: the 95 % intervals of
+    the model weighting, with V from the fitted model at the estimate, cover the true RW in
+    93-97 % of the records (s.e. 1.3 %); the diagonal weighting's, with V from eq. 17 on the
+    signal, in under 85 %."""
+    truth = stochmod.model_from_spec("WN(sigma2=1e-4) + RW(sigma2=1e-9)", FREQ)
+    covered = {"diagonal": 0, "model": 0}
+    for r in range(300):
+        x = truth.simulate(2**15, rng=7000 + r)
+        for name in covered:
+            rw = stochmod.gmwm(x, "WN+RW", FREQ, weighting=name).parameters()[1]
+            covered[name] += rw.low <= 1e-9 <= rw.high
+    assert 0.93 <= covered["model"] / 300 <= 0.97
+    assert covered["diagonal"] / 300 < 0.85
+
+
 def test_a_runtime_weighting_is_called_by_gmwm_and_select(inverse4: Inverse4th) -> None:
     x = white()
     emp = stochmod.wvar(x, FREQ)

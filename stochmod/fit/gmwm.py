@@ -224,6 +224,8 @@ def gmwm(
         result = GMWMResult.from_search(
             found, empirical=emp, omega=omega, weighting=weighting, levels=J, mask=mask,
             alpha=alpha, signal=signal, covariance=covariance, rng_seed=rng)
+        if getattr(scheme, "inference", "data") == "model":
+            result = result.with_model_covariance()
     else:
         result = IndirectGMWMResult.from_search(
             found, empirical=emp, omega=omega, weighting=weighting, levels=J, mask=mask,

@@ -318,6 +318,14 @@ class GMWMResult:
             vars(fit).update({k: known[k] for k in _WITHOUT_DATA_COVARIANCE if k in known})
         return fit
 
+    def with_model_covariance(self) -> GMWMResult:
+        """This fit with the fitted model's covariance of the WV at the estimate
+        (:meth:`model_based_covariance`) as the V of its intervals too, as a weighting with
+        ``inference = "model"`` declares (:mod:`stochmod.fit.weighting_plugins`); unchanged
+        where the model has none (a family without a PSD)."""
+        fit = self if self.null_covariance is not None else self.with_null_covariance()
+        return fit if fit.null_covariance is None else fit.with_data_covariance(fit.null_covariance)
+
     def with_null_covariance(self) -> GMWMResult:
         """This fit carrying its model-based covariance, computed now
         (:meth:`model_based_covariance`): a selection calls it in the worker that fitted the

@@ -664,7 +664,9 @@ def select(
         A registered weighting the selected model is fitted with again after the ranking
         (:func:`refit`), e.g. ``"model"``, whose estimates of the deep-level components (a
         random walk, a slow Gauss-Markov term) are not biased by the diagonal weights'
-        correlation with the levels' errors. The ranking stays that of the shared weighting.
+        correlation with the levels' errors, and whose intervals take the fitted model's
+        covariance of the WV; a weighting that needs the signal is refused. The ranking stays
+        that of the shared weighting.
 
     Returns
     -------
@@ -679,8 +681,10 @@ def select(
     if scheme.needs_fit:
         raise InputError(f"weighting {weighting!r} depends on each model's own fit and cannot be "
                          f"shared by the candidates; choose one of {weighting_names(shared=True)}")
-    if final_weighting is not None:
-        get_weighting(final_weighting)  # an unknown name fails before any fit
+    if final_weighting is not None and get_weighting(final_weighting).needs_signal:
+        raise InputError(f"final_weighting {final_weighting!r} needs the signal; the final fit "
+                         "has the selection's wavelet variance: choose one of "
+                         f"{[n for n in weighting_names() if not get_weighting(n).needs_signal]}")
     crit = _criteria.get_criterion(criterion)
     seed = _base_seed(rng)
     if levels is not None:
@@ -770,15 +774,17 @@ def refit(sel: SelectionResult, weighting: str, best: GMWMResult | None = None
 
     The fit (:func:`stochmod.gmwm` on the selection's empirical WV, its levels and seed) starts
     from the selected estimate, and a weighting with ``needs_fit`` takes the selected fit's
-    model as its pilot; inference uses the selection's V (eq. 17). The ranking and the
-    candidates' fits are those of the shared weighting.
+    model as its pilot; inference uses the selection's V (eq. 17), or the fitted model's for a
+    weighting with ``inference = "model"``. The ranking and the candidates' fits are those of
+    the shared weighting.
 
     Parameters
     ----------
     sel : SelectionResult
         A selection.
     weighting : str
-        A registered weighting (``"model"``, ``"optimal"`` ...).
+        A registered weighting that does not need the signal (``"model"``, ``"bootstrap"``,
+        ``"identity"`` ...).
     best : GMWMResult, optional
         The fit to start from, when not ``sel.best`` (a triad's common structure).
 
@@ -795,7 +801,8 @@ def refit(sel: SelectionResult, weighting: str, best: GMWMResult | None = None
     base = sel.graph.nodes[name]["model"] if name in sel.graph else start.model.freed()
     fit = gmwm(sel.empirical, base, weighting=weighting, levels=start.levels,
                starts=(start.model,), rng=start.rng_seed, binding="analytic")
-    fit = fit.with_data_covariance(sel.wv_covariance).with_null_covariance()
+    if getattr(get_weighting(weighting), "inference", "data") != "model":
+        fit = fit.with_data_covariance(sel.wv_covariance).with_null_covariance()
     if start.pooled is not None:
         fit = attrs.evolve(fit, pooled=start.pooled)
     return attrs.evolve(sel, best=fit, final_weighting=weighting)

@@ -11,7 +11,12 @@ object with
   passes that pilot fit, and a selection, whose candidates share one ``Omega``, refuses it;
 - ``matrix(data: WeightingInput) -> WeightingMatrix``: ``Omega`` (J x J, symmetric positive
   definite, unit^-4) and, when it inverts one, the covariance ``V`` of the empirical WV
-  (unit^4), which the result then reuses for inference.
+  (unit^4), which the result then reuses for inference;
+- ``inference`` (str, optional, default ``"data"``): the covariance of the empirical WV that
+  the fit's intervals use: ``"data"``, the one the matrix gave or eq. 17 on the signal;
+  ``"model"``, the fitted model's at the estimate
+  (:meth:`~stochmod.fit.results.GMWMResult.model_based_covariance`), as the ``"model"``
+  weighting declares.
 
 A plugin returns such objects from ``stochmod_weightings()``; the first-party ones below are
 registered by this module exactly that way (it is in the registry's built-in list, as the WVIC
@@ -123,13 +128,16 @@ class Weighting(abc.ABC):
     """Base class of a weighting (optional: the registry asks only for the attributes).
 
     A subclass sets ``name`` and ``description``, sets ``needs_signal`` or ``needs_fit`` when
-    true (both default to False), and implements :meth:`matrix`.
+    true (both default to False), ``inference`` to ``"model"`` when its fits' intervals take
+    the fitted model's covariance of the WV (default ``"data"``), and implements
+    :meth:`matrix`.
     """
 
     name: ClassVar[str]
     description: ClassVar[str]
     needs_signal: ClassVar[bool] = False
     needs_fit: ClassVar[bool] = False
+    inference: ClassVar[str] = "data"
 
     @abc.abstractmethod
     def matrix(self, data: WeightingInput) -> WeightingMatrix:
@@ -222,13 +230,17 @@ class ModelWeighting(Weighting):
     weighs more: the estimates of a random walk or a slow Gauss-Markov term are biased low and
     spread more than eqs. 22-23 say. Weights from the pilot model do not depend on the level's
     own error; the estimate then has the large-sample spread of the sandwich with
-    ``Omega = diag(1 / V_jj)`` (:func:`stochmod.fit.plan.interval_half_widths`).
+    ``Omega = diag(1 / V_jj)`` (:func:`stochmod.fit.plan.interval_half_widths`). Its intervals
+    take V from the fitted model too, at the estimate (``inference = "model"``): the eq. 17
+    estimate on the signal rests on a few coefficients at those levels and, in the sandwich,
+    makes the intervals of a random walk too short.
     """
 
     name: ClassVar[str] = "model"
     description: ClassVar[str] = ("inverse model-based variances of the empirical WV at a first "
-                                  "diagonal fit")
+                                  "diagonal fit; intervals from the fitted model's covariance")
     needs_fit: ClassVar[bool] = True
+    inference: ClassVar[str] = "model"
 
     def matrix(self, data: WeightingInput) -> WeightingMatrix:
         """The diagonal matrix at the pilot fit."""

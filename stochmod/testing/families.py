@@ -1057,7 +1057,8 @@ def check_weighting(weighting: Any, model: Any, freq: float = 100.0, *, rng: Rng
     with ``needs_fit`` is the diagonal GMWM fit of the model's structure. Checked:
 
     - ``name`` (non-empty str), ``description`` (str), ``needs_signal`` and ``needs_fit``
-      (bool) and a callable ``matrix``;
+      (bool), ``inference`` (``"data"`` or ``"model"``, when given) and a callable
+      ``matrix``;
     - ``matrix(data)`` gives Omega of shape (J, J), finite, symmetric, positive definite, and a
       covariance V (when it gives one) finite, symmetric, with positive variances;
     - the same input gives the same matrix (results reproduce);
@@ -1108,6 +1109,9 @@ def check_weighting(weighting: Any, model: Any, freq: float = 100.0, *, rng: Rng
     for flag in ("needs_signal", "needs_fit"):
         if not isinstance(getattr(weighting, flag, None), bool):
             raise AssertionError(f"weighting {name!r}: {flag} must be a bool")
+    if getattr(weighting, "inference", "data") not in ("data", "model"):
+        raise AssertionError(f"weighting {name!r}: inference must be 'data' or 'model', got "
+                             f"{weighting.inference!r}")
     if not callable(getattr(weighting, "matrix", None)):
         raise AssertionError(f"weighting {name!r} has no matrix(data) method")
     freq = check_freq(freq)

@@ -83,6 +83,10 @@ class NoFlags(Base):
     needs_fit = "no"  # type: ignore[assignment]
 
 
+class UnknownInference(Base):
+    inference = "posterior"
+
+
 @pytest.mark.parametrize("broken, match", [
     (Asymmetric(), "not symmetric"),
     (Indefinite(), "not positive definite"),
@@ -92,6 +96,7 @@ class NoFlags(Base):
     (SecretlyNeedsSignal(), "failed on the wavelet variance alone"),
     (BadCovariance(), "positive variances"),
     (NoFlags(), "needs_fit must be a bool"),
+    (UnknownInference(), "inference must be 'data' or 'model'"),
 ])
 def test_broken_weightings_fail_on_the_property_they_break(broken: Base, match: str) -> None:
     with pytest.raises(AssertionError, match=match):
