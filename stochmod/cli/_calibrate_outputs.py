@@ -135,8 +135,8 @@ def drift_line(pred: DriftPrediction) -> str:
     band = ""
     if pred.draws.shape[0] > pred.n_failed:
         low, high = pred.band()
-        band = f" (5-95 % over {pred.draws.shape[0] - pred.n_failed} parameter draws: " \
-               f"{low:.4g}-{high:.4g} m)"
+        band = (f" (5-95 % over {pred.draws.shape[0] - pred.n_failed} parameter draws: "
+                f"{low:.4g}-{high:.4g} m)")
     return (f"predicted drift over a {c.outage:g} s GNSS outage at rest after {c.settle:g} s "
             f"of fixes: 1-sigma horizontal {pred.end_sigma:.4g} m{band}; docs/drift.md")
 
