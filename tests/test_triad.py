@@ -156,7 +156,9 @@ def test_calibrate_triad_with_a_final_weighting_refits_the_common_structure(tmp_
     out = tmp_path / "out"
     assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW",
                  "--no-plots", "--out", str(out), "--triad", "--final-weighting", "model"]) == 0
-    capsys.readouterr()
+    printed = capsys.readouterr().out
+    assert printed.count("fitted again after the ranking (diagonal weighting) with the model "
+                         "weighting") == 3
     report = json.loads((out / "calibration.json").read_text())
     cal = stochmod.Calibration.read(out / "calibration.json")
     for c, x in cols.items():
