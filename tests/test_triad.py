@@ -155,10 +155,13 @@ def test_calibrate_triad_with_a_final_weighting_refits_the_common_structure(tmp_
     np.savez(path, freq=FS, **cols)
     out = tmp_path / "out"
     assert main(["calibrate", "--assume-si", str(path), "--candidates", "WN", "GM+WN", "WN+RW",
-                 "--no-plots", "--out", str(out), "--triad", "--final-weighting", "model"]) == 0
+                 "--no-plots", "--report", "--out", str(out), "--triad", "--final-weighting",
+                 "model"]) == 0
     printed = capsys.readouterr().out
-    assert printed.count("fitted again after the ranking (diagonal weighting) with the model "
-                         "weighting") == 3
+    again = "fitted again after the ranking (diagonal weighting) with the model weighting"
+    assert printed.count(again) == 3
+    page = (out / "report.html").read_text()
+    assert page.count(f"model structure chosen per triad; {again}") == 3
     report = json.loads((out / "calibration.json").read_text())
     cal = stochmod.Calibration.read(out / "calibration.json")
     for c, x in cols.items():
