@@ -39,9 +39,6 @@ __all__ = ["EXPORT_HORIZON_HELP", "add_output_arguments", "check_drift_request",
            "export_noise", "fleet_requested", "predict_drift", "report_axis", "report_overview",
            "write_exports_for", "write_report_for"]
 
-#: The columns ``--drift`` needs (the navigation filter's six axes, case-insensitive).
-DRIFT_AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
-
 #: Help of ``--export-horizon`` (``calibrate`` and ``export``).
 EXPORT_HORIZON_HELP = (
     "H, s: the exported white density N and random walk K are the tightest pair whose Allan "
@@ -98,17 +95,21 @@ def fleet_requested(args: argparse.Namespace) -> bool:
 
 def check_drift_request(args: argparse.Namespace, columns: Sequence[str]) -> None:
     """Refuse, before any selection, a ``--drift`` that is not a duration or that the
-    recording's `columns` cannot serve (one each of gyro_x ... accel_z, case-insensitive)."""
+    recording's `columns` cannot serve (one each of the navigation filter's axes,
+    :data:`stochmod.nav.emulate.AXES`, case-insensitive, as
+    :func:`stochmod.nav.drift.calibration_axes` will ask of the calibration)."""
     if args.drift is None:
         return
+    from stochmod.nav.emulate import AXES
+
     if not (math.isfinite(args.drift) and args.drift > 0):
         raise InputError(f"--drift takes the outage's length in seconds (> 0), got {args.drift:g}")
     if args.drift_draws < 0:
         raise InputError(f"--drift-draws must be at least 0, got {args.drift_draws}")
     keys = [c.strip().lower() for c in columns]
-    missing = [a for a in DRIFT_AXES if keys.count(a) != 1]
+    missing = [a for a in AXES if keys.count(a) != 1]
     if missing:
-        raise InputError(f"--drift needs one column each of {', '.join(DRIFT_AXES)} "
+        raise InputError(f"--drift needs one column each of {', '.join(AXES)} "
                          f"(case-insensitive) for the navigation filter; {', '.join(missing)} "
                          f"missing or repeated among {list(columns)}")
 
