@@ -175,11 +175,9 @@ def report_axis(run_: CalibrationRun, k: int, *, bands: ValidationBands | None =
     from stochmod.output.html_report import ReportAxis
 
     sel = run_.selections[k]
-    notes = ["model structure chosen per triad"] if run_.triads else []
-    if sel.final_weighting is not None:
-        notes.append(f"fitted again after the ranking ({sel.weighting} weighting) with the "
-                     f"{sel.final_weighting} weighting")
-    return ReportAxis(sel.column, sel, run_.datasheets[sel.column], bands, note="; ".join(notes),
+    notes = ["model structure chosen per triad" if run_.triads else "", sel.refit_note]
+    return ReportAxis(sel.column, sel, run_.datasheets[sel.column], bands,
+                      note="; ".join(n for n in notes if n),
                       final=run_.finals[k], noise=noise, verdict=run_.verdicts[k])
 
 

@@ -573,9 +573,8 @@ def _console(run_: CalibrationRun, args: argparse.Namespace, samples: str) -> st
         unit = f"{axis.unit or 'unit unknown'}" + (" (assumed)" if source == "assumed" else "")
         lines += ["", f"{axis.column} ({axis.kind}, {unit}): {axis.model.name}",
                   f"  verdict: {judged.summary()}"]
-        if sel.final_weighting is not None:
-            lines.append(f"  fitted again after the ranking ({sel.weighting} weighting) with the "
-                         f"{sel.final_weighting} weighting")
+        if sel.refit_note:
+            lines.append(f"  {sel.refit_note}")
         for r in fin.replacements:
             lines.append(f"  fitted {fin.fitted.model.name}: {r.summary()}")
         sheet = run_.datasheets.get(axis.column)

@@ -464,6 +464,14 @@ class SelectionResult:
     wv_covariance: np.ndarray
     final_weighting: str | None = None
 
+    @property
+    def refit_note(self) -> str:
+        """What :func:`refit` did, in words ("" when :attr:`best` is the ranked fit)."""
+        if self.final_weighting is None:
+            return ""
+        return (f"fitted again after the ranking ({self.weighting} weighting) with the "
+                f"{self.final_weighting} weighting")
+
     def summary(self) -> str:
         """The ranking table followed by the selected fit's report."""
         rows = [[i + 1, r.model, r.n_params, r.objective, r.optimism, r.criterion,
