@@ -234,9 +234,11 @@ def assemble(segments: Sequence[Recording], freq: float, selections: Sequence[Se
             choice = triad_select([by_col[c] for c in cols], sensors)
             triads.append(choice)
             for c in cols:
-                again = by_col[c].final_weighting
-                by_col[c] = (attrs.evolve(by_col[c], best=choice.fits[c]) if again is None
-                             else refit(by_col[c], again, best=choice.fits[c]))
+                sel, chosen = by_col[c], choice.fits[c]
+                if sel.final_weighting is None:
+                    by_col[c] = attrs.evolve(sel, best=chosen)
+                elif chosen is not sel.fits[sel.ranking[0].model]:  # else refitted already
+                    by_col[c] = refit(sel, sel.final_weighting, best=chosen)
         selections = [by_col[s.column] for s in selections]
     finals = [replace_equivalents(s.best, units[s.column]) if replace
               else FinalFit(s.best, s.best, ()) for s in selections]
