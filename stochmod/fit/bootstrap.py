@@ -341,7 +341,7 @@ def _run_replicates(task: _Task, seeds: Sequence[np.random.SeedSequence], n_phys
                 made = get_weighting(task.weighting).matrix(WeightingInput(emp, task.levels))
                 omega = check_weighting_matrix(made.omega, task.levels)
             problem = Problem(task.model, nu, omega, task.mask)
-            res = refine(problem.residuals, problem.jacobian, x0, *_REFIT_TOLERANCE, method="lm")
+            res = refine(problem.residuals, problem.jacobian, x0, *_REFIT_TOLERANCE)
             if not np.isfinite(problem.safe_objective(res.x)):
                 continue
             model = canonical(problem.model(res.x))

@@ -302,31 +302,19 @@ class SearchResult:
 
 
 def refine(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray],
-           x0: np.ndarray, tol: float = REFINE_TOLERANCE[0], max_nfev: int = REFINE_TOLERANCE[1],
-           *, callback: Callable[..., Any] | None = None, method: str = "trf"
+           x0: np.ndarray, tol: float = REFINE_TOLERANCE[0], max_nfev: int = REFINE_TOLERANCE[1]
            ) -> optimize.OptimizeResult:
     """One bounded local least-squares search from `x0` clipped to ``[-BOUND, BOUND]``, with
-    `tol` as xtol, ftol and gtol.
-
-    `method` ``"trf"``: ``scipy.optimize.least_squares`` (trf, Jacobian scaling); ``"lm"``: the
-    lean Levenberg-Marquardt of :mod:`stochmod.fit.lsq` (same stopping rules and result fields,
-    a fraction of scipy's overhead per iteration on these small problems). `callback` (scipy >=
-    1.16 for trf) may stop the search by raising ``StopIteration``. Floating point warnings of
-    the model's evaluations are silenced (a trial step may leave a family's reach; the search
-    then backs off).
+    `tol` as xtol, ftol and gtol: the Levenberg-Marquardt of :mod:`stochmod.fit.lsq` (the
+    stopping rules and result fields of ``scipy.optimize.least_squares``, a fraction of its
+    overhead per iteration on these small problems). Floating point warnings of the model's
+    evaluations are silenced (a trial step may leave a family's reach; the search then backs
+    off).
     """
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
-        if method == "lm":
-            return levenberg_marquardt(fun, jac, x0, (-BOUND, BOUND), ftol=tol, xtol=tol, gtol=tol,
-                                       max_nfev=max_nfev, callback=callback)
-        from scipy import optimize  # here: the plugin registry imports this module at start-up
-
-        extra = {} if callback is None else {"callback": callback}
-        return optimize.least_squares(
-            fun, np.clip(x0, -BOUND, BOUND), jac=jac, bounds=(-BOUND, BOUND),
-            method="trf", x_scale="jac", xtol=tol, ftol=tol, gtol=tol, max_nfev=max_nfev, **extra,
-        )
+        return levenberg_marquardt(fun, jac, x0, (-BOUND, BOUND), ftol=tol, xtol=tol, gtol=tol,
+                                   max_nfev=max_nfev)
 
 
 def canonical(model: Model) -> Model:
@@ -410,8 +398,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     stage1: list[tuple[float, np.ndarray]] = [(problem.safe_objective(x), x) for x in given]
     for x0 in candidates:
         try:
-            flat = refine(problem.flat_residuals, problem.flat_jacobian, x0, *STAGE1_TOLERANCE,
-                          method="lm")
+            flat = refine(problem.flat_residuals, problem.flat_jacobian, x0, *STAGE1_TOLERANCE)
         except _FAILURES:
             continue
         nfev += flat.nfev
@@ -433,7 +420,7 @@ def search(base: Model, nu_hat: np.ndarray, omega: np.ndarray, mask: np.ndarray,
     best: dict[str, Any] | None = None
     for x1 in chosen:
         try:
-            res = refine(problem.residuals, problem.jacobian, x1, method="lm")
+            res = refine(problem.residuals, problem.jacobian, x1)
         except _FAILURES:
             continue
         nfev += res.nfev

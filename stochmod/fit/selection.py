@@ -266,8 +266,7 @@ def _local_search(task: _Task, base: Model, nu_hat: np.ndarray, mask: np.ndarray
     best: dict[str, Any] | None = None
     nfev = 0
     for x0 in chosen:
-        res = refine(problem.residuals, problem.jacobian, x0, _CHILD_TOL, _CHILD_NFEV,
-                     method="lm")
+        res = refine(problem.residuals, problem.jacobian, x0, _CHILD_TOL, _CHILD_NFEV)
         nfev += res.nfev
         value = problem.safe_objective(res.x)
         if best is None or value < best["objective"]:
