@@ -478,6 +478,10 @@ def test_the_final_weighting_refits_the_selected_model_only(threads):
     assert not np.allclose(again.best.model.vector(), plain.best.model.vector(), rtol=1e-3, atol=0)
     np.testing.assert_array_equal(again.best.wv_covariance, again.best.model_based_covariance())
     np.testing.assert_allclose(again.best.std_errors, direct.std_errors, rtol=1e-5)
+    # the selected fit is the pilot: Omega is the inverse model variance of eq. 17 at it
+    V = stochmod.fit.weighting.model_covariance(plain.best.model, plain.empirical.n_coef,
+                                                plain.empirical.wavelet)
+    np.testing.assert_allclose(np.diag(again.best.omega), 1.0 / np.diag(V), rtol=1e-12)
     ols = select(x, FREQ, candidates=candidates, executor=threads, final_weighting="identity")
     np.testing.assert_array_equal(ols.best.wv_covariance, plain.wv_covariance)
     with pytest.raises(InputError, match="final_weighting 'optimal' needs the signal"):

@@ -20,7 +20,7 @@ import stochmod
 from stochmod import sdk
 import stochmod.fit.selection  # used as stochmod.fit.selection below
 from stochmod.cli import main
-from stochmod.core.errors import InputError, StochmodError
+from stochmod.core.errors import InputError, SpecError, StochmodError
 from stochmod.fit.weighting import WEIGHTINGS
 from stochmod.fit.weighting_plugins import (
     Weighting,
@@ -128,6 +128,28 @@ def test_the_model_weighting_is_the_inverse_model_variance_at_the_pilot_fit() ->
     np.testing.assert_allclose(np.diag(fit.omega), 1.0 / np.array(var), rtol=1e-8)
     assert np.count_nonzero(fit.omega - np.diag(np.diag(fit.omega))) == 0
     assert fit.model.vector()[0] == pytest.approx(wn_estimate(emp.wv, 1.0 / np.array(var)), rel=1e-8)
+
+
+def test_a_given_pilot_fixes_the_model_weighting() -> None:
+    """``pilot=``: Omega is the inverse model variance at the pilot's model (here WN(9), away
+    from the data's WN(4)), not at a diagonal fit; a pilot of another model, or for a
+    weighting without ``needs_fit``, is refused."""
+    x = white()
+    emp = stochmod.wvar(x, FREQ)
+    diagonal = stochmod.gmwm(x, "WN", FREQ)
+    pilot = attrs.evolve(diagonal, model=stochmod.model_from_spec("WN(sigma2=9.0)", FREQ))
+    fit = stochmod.gmwm(x, "WN", FREQ, weighting="model", pilot=pilot)
+    var = [2.0 / m * (g[0] ** 2 + 2.0 * np.sum(g[1:] ** 2))
+           for g, m in ((_haar_coefficient_acov(int(j), 9.0), m)
+                        for j, m in zip(emp.levels, emp.n_coef))]
+    np.testing.assert_allclose(np.diag(fit.omega), 1.0 / np.array(var), rtol=1e-8)
+    other = stochmod.gmwm(x, "GM+WN", FREQ)
+    with pytest.raises(SpecError, match="pilot fit of GM\\+WN does not match model WN"):
+        stochmod.gmwm(x, "WN", FREQ, weighting="model", pilot=other)
+    with pytest.raises(InputError, match="weighting 'diagonal' does not take one"):
+        stochmod.gmwm(x, "WN", FREQ, pilot=diagonal)
+    with pytest.raises(InputError, match="pilot must be a GMWMResult, got Model"):
+        stochmod.gmwm(x, "WN", FREQ, weighting="model", pilot=pilot.model)
 
 
 def test_the_model_weighting_removes_the_random_walks_bias_of_the_diagonal_weighting() -> None:

@@ -59,6 +59,7 @@ def gmwm(
     intervals: str = "asymptotic",
     n_boot: int = 200,
     executor: Executor | None = None,
+    pilot: GMWMResult | None = None,
 ) -> GMWMResult:
     """Fit a composite model by the GMWM (eq. 20).
 
@@ -136,6 +137,10 @@ def gmwm(
     executor : concurrent.futures.Executor, optional
         Runs the bootstrap replicates (default: in this process); the results do not depend
         on it.
+    pilot : GMWMResult, optional
+        The first fit of a weighting with ``needs_fit`` (``"model"``, ``"bootstrap"``): a fit
+        of the same model, whose estimate fixes Omega and starts the final search. Default:
+        the diagonal fit of the model to `data` with the same options.
 
     Returns
     -------
@@ -197,6 +202,8 @@ def gmwm(
             "use wavelet='haar' or binding='simulated' (indirect inference with the same wavelet)"
         )
 
+    if pilot is not None:
+        _check_pilot(pilot, base, scheme)
     covariance = None
     if custom is not None:
         omega = check_weighting_matrix(custom, J)
@@ -205,11 +212,11 @@ def gmwm(
         known = None if pooled is None else pooled.covariance
         if scheme.needs_signal and signal is None and known is None:
             raise InputError(f"weighting={weighting!r} needs the signal, not only its wavelet variance")
-        pilot = None
-        if scheme.needs_fit:  # a first diagonal fit, whose model also starts the final search
+        if scheme.needs_fit and pilot is None:  # its model also starts the final search
             pilot = gmwm(emp, base, freq, weighting="diagonal", levels=J, n_starts=n_starts,
                          n_random=n_random, starts=starts, rng=rng, binding=binding, R=R,
                          max_sim=max_sim)
+        if pilot is not None:
             starts = (*starts, pilot.model)
         made = scheme.matrix(WeightingInput(emp, J, signal, pilot, seed=rng, reps=bootstrap_reps,
                                             covariance=known))
@@ -233,3 +240,16 @@ def gmwm(
     if pooled is not None:
         result = attrs.evolve(result, pooled=pooled)
     return with_intervals(result, intervals, n_boot, rng=rng, executor=executor)
+
+
+def _check_pilot(pilot: GMWMResult, base: Model, scheme: object) -> None:
+    """A SpecError or InputError unless `pilot` is a fit of `base` for a weighting with
+    ``needs_fit``."""
+    if scheme is None or not scheme.needs_fit:
+        name = "a custom matrix" if scheme is None else f"weighting {scheme.name!r}"
+        raise InputError(f"pilot is the first fit of a weighting with needs_fit; {name} "
+                         "does not take one")
+    if not isinstance(pilot, GMWMResult):
+        raise InputError(f"pilot must be a GMWMResult, got {type(pilot).__name__}")
+    if pilot.model.name != base.name or pilot.model.n_params != base.n_params:
+        raise SpecError(f"pilot fit of {pilot.model.name} does not match model {base.name}")

@@ -806,9 +806,11 @@ def refit(sel: SelectionResult, weighting: str, best: GMWMResult | None = None
     start = sel.best if best is None else best
     name = start.model.name
     base = sel.graph.nodes[name]["model"] if name in sel.graph else start.model.freed()
+    scheme = get_weighting(weighting)
     fit = gmwm(sel.empirical, base, weighting=weighting, levels=start.levels,
-               starts=(start.model,), rng=start.rng_seed, binding="analytic")
-    if getattr(get_weighting(weighting), "inference", "data") != "model":
+               starts=(start.model,), rng=start.rng_seed, binding="analytic",
+               pilot=start if scheme.needs_fit else None)
+    if getattr(scheme, "inference", "data") != "model":
         fit = fit.with_data_covariance(sel.wv_covariance).with_null_covariance()
     if start.pooled is not None:
         fit = attrs.evolve(fit, pooled=start.pooled)
